@@ -1,0 +1,262 @@
+"""Solve a training set of step OCPs in parallel, resumably, and write it as one HDF5 file.
+
+Jobs run in local processes by default, or on an existing Dask cluster.  Every finished
+job is saved at once as a part file in ``<output>.parts/``; a rerun loads those and solves
+only what is missing, so an interrupted run loses at most the jobs in flight.  A step that
+does not converge is retried from other initial guesses and, if it still fails, reported
+and left out of the training data.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from cocomopl.dataset.plan import successors, training_specs
+from cocomopl.dataset.signals import training_signals
+from cocomopl.errors import Error
+from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion_file import read_motion, write_motions
+from cocomopl.ocp.models import OCPSettings
+from cocomopl.ocp.solve import solve_length, solve_with_retries, to_motion
+from cocomopl.robot import Robot, mirror_motion
+
+@dataclass
+class JobResult:
+    """What a job returns: converged motions by spec, and the attempts of those that failed."""
+
+    motions: dict = field(default_factory=dict)
+    failed: dict = field(default_factory=dict)
+
+
+def length_job(
+    robot_name: str, settings: dict, length: float, kinds: list[str], cyclic: Motion | None = None
+) -> JobResult:
+    """The ``kinds`` among cyclic, start and stop steps of one length (runs in a worker:
+    plain data in and out).  An already solved ``cyclic`` step fixes the start state."""
+    robot = Robot(robot_name)
+    opts = OCPSettings(**settings)
+    start_state = None if cyclic is None else np.concatenate([cyclic.q[0], cyclic.v[0]])
+    solutions, info = solve_length(robot, length, opts, kinds, start_state)
+    result = JobResult()
+    for kind, solution in solutions.items():
+        spec = {"cyclic": StepSpec("cyclic", length, length), "start": StepSpec("start", 0.0, length),
+                "stop": StepSpec("stop", length, 0.0)}[kind]
+        if solution is None:
+            result.failed[spec.name] = info["attempts"][kind]
+        else:
+            result.motions[spec] = to_motion(robot, solution, opts)
+    return result
+
+
+def transition_job(robot_name: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion) -> JobResult:
+    """A transition step between the start states of two cyclic steps, warm-started from
+    the cyclic step of its start length."""
+    robot = Robot(robot_name)
+    opts = OCPSettings(**settings)
+    states = {
+        spec.start_length: np.concatenate([cyclic_from.q[0], cyclic_from.v[0]]),
+        spec.end_length: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
+    }
+    warm = list(np.hstack([cyclic_from.q, cyclic_from.v]))
+    solution, attempts = solve_with_retries(robot, spec, states, opts, [warm, "kinematic", "static"])
+    if solution is None:
+        return JobResult(failed={spec.name: attempts})
+    return JobResult(motions={spec: to_motion(robot, solution, opts)})
+
+
+def _part_path(parts: Path, spec: StepSpec) -> Path:
+    return parts / f"{spec.name}.h5"
+
+
+def _versions() -> dict:
+    from importlib.metadata import version
+
+    import cocomopl
+
+    names = ["pin", "crocoddyl", "mim-solvers", "example-robot-data", "numpy", "h5py"]
+    out = {"cocomopl": cocomopl.__version__, "python": sys.version.split()[0]}
+    for name in names:
+        try:
+            out[name] = version(name)
+        except Exception:  # a missing optional package is recorded as such
+            out[name] = None
+    return out
+
+
+class _Executor:
+    """Local process pool or Dask client behind one submit/as_completed interface."""
+
+    def __init__(self, workers: int, scheduler: str | None):
+        self.scheduler = scheduler
+        if scheduler:
+            try:
+                from dask.distributed import Client
+            except ImportError:
+                raise Error("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from None
+            try:
+                self.client = Client(scheduler, timeout=10)
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise Error(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+        else:
+            self.pool = cf.ProcessPoolExecutor(max_workers=workers)
+
+    def submit(self, fn, *args):
+        if self.scheduler:
+            return self.client.submit(fn, *args, pure=False)
+        return self.pool.submit(fn, *args)
+
+    def as_completed(self, futures):
+        if self.scheduler:
+            from dask.distributed import as_completed
+
+            return as_completed(futures)
+        return cf.as_completed(futures)
+
+    @staticmethod
+    def result(future):
+        return future.result()
+
+    def close(self):
+        if self.scheduler:
+            self.client.close()
+        else:
+            self.pool.shutdown(cancel_futures=True)
+
+
+def generate(
+    output: str | Path,
+    lengths: tuple[float, ...],
+    robot_name: str = "talos",
+    settings: OCPSettings | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    command: str = "",
+    progress: bool = True,
+) -> dict:
+    """Solve the training set for ``lengths`` (m) and write the dataset to ``output``.
+
+    Returns a summary: solved, reused, failed steps and timings.
+    """
+    from tqdm import tqdm
+
+    settings = settings or OCPSettings()
+    robot = Robot(robot_name)  # fail fast on a bad robot before any process starts
+    output = Path(output)
+    parts = output.with_name(output.name + ".parts")
+    parts.mkdir(parents=True, exist_ok=True)
+    specs = training_specs(lengths)
+    done: dict[StepSpec, Motion] = {}
+    for spec in specs:
+        if _part_path(parts, spec).exists():
+            try:
+                done[spec] = read_motion(_part_path(parts, spec))
+            except Error:
+                _part_path(parts, spec).unlink()  # a damaged part is solved again
+    reused = len(done)
+    failed: dict[str, list] = {}
+    workers = workers or max(1, min(len(lengths), os.cpu_count() or 1))
+    executor = _Executor(workers, scheduler)
+    start = time.perf_counter()
+    bar = tqdm(total=len(specs), initial=reused, desc="OCPs", unit="ocp", disable=not progress, file=sys.stderr)
+    def collect(futures) -> None:
+        for future in executor.as_completed(list(futures)):
+            result: JobResult = executor.result(future)
+            for spec, motion in result.motions.items():
+                write_motions(_part_path(parts, spec), {spec.name: motion}, {"content": "part"})
+                done[spec] = motion
+                bar.update(1)
+            for name, attempts in result.failed.items():
+                failed[name] = attempts
+                bar.write(f"did not converge: {name} after {len(attempts)} attempts", file=sys.stderr)
+                bar.update(1)
+
+    try:
+        # lengths first: every transition starts and ends in a cyclic step's start state
+        per_length = {L: [s for s in specs if s.kind != "transition" and L in (s.start_length, s.end_length)] for L in lengths}
+        futures = {}
+        for L, group in per_length.items():
+            missing = [s.kind for s in group if s not in done]
+            if missing:
+                cyclic = done.get(StepSpec("cyclic", L, L))
+                futures[executor.submit(length_job, robot_name, settings.as_dict(), L, missing, cyclic)] = L
+        collect(futures)
+        cyclic = {s.start_length: m for s, m in done.items() if s.kind == "cyclic"}
+        futures = {}
+        for spec in specs:
+            if spec.kind != "transition" or spec in done:
+                continue
+            if spec.start_length in cyclic and spec.end_length in cyclic:
+                futures[executor.submit(
+                    transition_job, robot_name, settings.as_dict(), spec, cyclic[spec.start_length], cyclic[spec.end_length]
+                )] = spec
+            else:
+                failed[spec.name] = [{"error": "a cyclic step it joins did not converge"}]
+                bar.update(1)
+        collect(futures)
+    finally:
+        bar.close()
+        executor.close()
+    wall = time.perf_counter() - start
+    motions: dict[str, Motion] = {}
+    for spec in specs:
+        if spec in done:
+            motions[spec.name] = done[spec]
+            mirrored = mirror_motion(robot, done[spec])
+            motions[mirrored.name] = mirrored
+    signals = {name: training_signals(robot, m) for name, m in motions.items()}
+    solve_times = [m.meta["solver"]["solve_time_s"] for m in done.values()]
+    attrs = {
+        "content": "dataset",
+        "robot": robot.name,
+        "lengths_m": list(lengths),
+        "ocps": [s.name for s in specs],
+        "failed": failed,
+        "all_converged": not failed,
+        "settings": settings.as_dict(),
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "command": command,
+        "versions": _versions(),
+        "wall_time_s": wall,
+        "workers": 0 if scheduler else workers,
+        "scheduler": scheduler or "local processes",
+        "signal_names": signals[next(iter(signals))]["names"] if signals else [],
+        "continuity": continuity_report(robot, done),
+        "mean_solve_time_s": float(np.mean(solve_times)) if solve_times else None,
+    }
+    write_motions(output, motions, attrs, signals)
+    if not failed:
+        shutil.rmtree(parts, ignore_errors=True)
+    return {
+        "output": str(output),
+        "ocps": len(specs),
+        "solved": len(done) - reused,
+        "reused": reused,
+        "failed": sorted(failed),
+        "motions": len(motions),
+        "wall_time_s": wall,
+    }
+
+
+def continuity_report(robot: Robot, done: dict[StepSpec, Motion]) -> dict:
+    """End-to-start mismatch of every ordered pair of solved steps that may follow each other."""
+    from cocomopl.dataset.continuity import step_mismatch
+
+    report = {}
+    specs = list(done)
+    mirrored = {s.mirrored(): mirror_motion(robot, m) for s, m in done.items()}
+    for spec in specs:
+        for nxt in successors(spec, list(mirrored)):
+            report[f"{spec.name}->{nxt.name}"] = step_mismatch(robot, done[spec], mirrored[nxt])
+    return report
+
+
+__all__ = ["JobResult", "generate", "length_job", "transition_job"]

@@ -1,0 +1,74 @@
+"""Rigid-body quantities recomputed from a motion with Pinocchio: sole placements, ZMP,
+inverse dynamics.  Used to build motions and, independently of any solver, to check them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from cocomopl.robot import Robot
+
+SIDES = ("left", "right")
+
+
+def sole_placements(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """Sole frame positions (n, 2, 3) of (left, right), world frame."""
+    model, data = robot.model, robot.model.createData()
+    out = np.empty((len(q), 2, 3))
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(model, data, qk)
+        for j, side in enumerate(SIDES):
+            out[k, j] = data.oMf[robot.foot_frames[side]].translation
+    return out
+
+
+def zmp_from_wrenches(soles: np.ndarray, wrenches: np.ndarray, height: float = 0.0) -> np.ndarray:
+    """Zero-moment point (n, 3) on the plane ``z = height`` of contact wrenches.
+
+    ``wrenches`` (n, 2, 6) act at the sole origins ``soles`` (n, 2, 3), world-aligned axes.
+    Where no foot pushes (flight, impacts) the ZMP is undefined and NaN.
+    """
+    force = wrenches[..., :3].sum(axis=1)
+    moment = (np.cross(soles, wrenches[..., :3]) + wrenches[..., 3:]).sum(axis=1)
+    fz = force[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # moment about (px, py, h) has zero horizontal part: solve for px, py
+        px = (-moment[:, 1] - height * force[:, 0]) / fz
+        py = (moment[:, 0] - height * force[:, 1]) / fz
+    out = np.stack([px, py, np.full_like(px, height)], axis=1)
+    out[fz <= 1e-6] = np.nan
+    return out
+
+
+def finite_difference_accelerations(t: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Accelerations over each interval (n-1, nv) of a symplectic-Euler motion: dv/dt."""
+    dt = np.diff(t)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.diff(v, axis=0) / dt[:, None]
+
+
+def inverse_dynamics_residual(robot: Robot, q, v, a, tau, wrenches) -> np.ndarray:
+    """``M a + h - S^T tau - sum J^T f`` per sample (n, nv): zero for consistent dynamics."""
+    model, data = robot.model, robot.model.createData()
+    out = np.empty((len(q), model.nv))
+    for k in range(len(q)):
+        rhs = pin.rnea(model, data, q[k], v[k], a[k]).copy()
+        rhs[6:] -= tau[k]
+        pin.computeJointJacobians(model, data, q[k])
+        pin.updateFramePlacements(model, data)
+        for j, side in enumerate(SIDES):
+            if np.any(wrenches[k, j]):
+                J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED)
+                rhs -= J.T @ wrenches[k, j]
+        out[k] = rhs
+    return out
+
+
+def pelvis_placements(robot: Robot, q: np.ndarray) -> list[pin.SE3]:
+    """Placement of the pelvis frame per sample."""
+    model, data = robot.model, robot.model.createData()
+    out = []
+    for qk in q:
+        pin.framesForwardKinematics(model, data, qk)
+        out.append(data.oMf[robot.pelvis_frame].copy())
+    return out

@@ -1,0 +1,107 @@
+"""The currency of the pipeline: :class:`StepSpec` and :class:`Motion`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+STEP_KINDS = ("start", "cyclic", "transition", "stop")
+
+
+@dataclass(frozen=True)
+class StepSpec:
+    """One step: its kind, the step length before and after it (m), and the swinging foot.
+
+    Step length is the distance between the feet along the walking direction at double
+    support.  A start step begins with the feet together (``start_length == 0``); a stop
+    ends with them together (``end_length == 0``).
+    """
+
+    kind: str
+    start_length: float
+    end_length: float
+    swing_side: str = "left"
+
+    def __post_init__(self):
+        if self.kind not in STEP_KINDS:
+            raise ValueError(f"step kind must be one of {STEP_KINDS}, not {self.kind!r}")
+        if self.swing_side not in ("left", "right"):
+            raise ValueError(f"swing side must be 'left' or 'right', not {self.swing_side!r}")
+
+    @property
+    def name(self) -> str:
+        """A stable, readable identifier such as ``transition_250_300_L``."""
+        mm = [round(1000 * self.start_length), round(1000 * self.end_length)]
+        side = "L" if self.swing_side == "left" else "R"
+        if self.kind == "start":
+            lengths = f"{mm[1]}"
+        elif self.kind in ("cyclic", "stop"):
+            lengths = f"{mm[0]}"
+        else:
+            lengths = f"{mm[0]}_{mm[1]}"
+        return f"{self.kind}_{lengths}_{side}"
+
+    def mirrored(self) -> "StepSpec":
+        return StepSpec(self.kind, self.start_length, self.end_length, "right" if self.swing_side == "left" else "left")
+
+
+@dataclass
+class Motion:
+    """A whole-body motion, whoever produced it (OC, primitives, simulator, baseline).
+
+    Samples are at knots ``t``; at a touchdown the same time appears twice (pre- and
+    post-impact state) and ``impacts`` lists the pre-impact sample indices.  Torques and
+    contact wrenches hold over ``[t[k], t[k+1])`` (zero-order hold; the last sample repeats
+    the one before).  Everything is SI and in the motion's frame: for a single step, the
+    stance sole's frame at the step's start (x forward, z up).
+
+    Attributes
+    ----------
+    t : (n,) time, s
+    q : (n, nq) configuration: base position, base quaternion (x, y, z, w), joint angles (rad)
+    v : (n, nv) velocity: base twist in the base frame, joint velocities
+    tau : (n, nu) joint torques, N m, in ``joint_names`` order
+    wrenches : (n, 2, 6) contact wrench of (left, right) sole: force (N), moment (N m),
+        world-aligned axes, about the sole frame origin; zero when the foot is in the air
+    contact : (n, 2) bool, (left, right) sole in contact
+    zmp : (n, 3) zero-moment point of the contact wrenches, m, on the ground
+    phases : list of (kind, first, last) sample ranges, kind in ``ds``, ``ss``
+    impacts : (m,) int, pre-impact sample indices
+    steps : list of StepSpec, and ``step_starts`` the first sample of each
+    joint_names, robot : the robot the motion is for
+    meta : provenance: producer, solver statistics, versions
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    tau: np.ndarray
+    wrenches: np.ndarray
+    contact: np.ndarray
+    zmp: np.ndarray
+    phases: list
+    impacts: np.ndarray
+    steps: list
+    step_starts: np.ndarray
+    joint_names: list
+    robot: str
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return len(self.t)
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def name(self) -> str:
+        return "+".join(s.name for s in self.steps)
+
+    def kept_samples(self) -> np.ndarray:
+        """Indices of the samples without the pre-impact duplicates: a strictly increasing time grid."""
+        keep = np.ones(self.n, dtype=bool)
+        keep[self.impacts] = False
+        return np.flatnonzero(keep)

@@ -1,0 +1,222 @@
+"""Crocoddyl action models for one knot of a walking step.
+
+One function per cost or constraint; :func:`contact_knot`, :func:`impulse_knot` and
+:func:`terminal_knot` assemble them.  Everything a user may tune lives in
+:class:`OCPSettings`.  Constraints are imposed as in the paper's ``J_pen``: a Lagrangian
+relaxation with quadratic barriers that vanish when the constraint holds, plus hard torque
+bounds in the box-constrained solver.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import crocoddyl
+import numpy as np
+import pinocchio as pin
+
+from cocomopl.robot import Robot
+
+INF = 1e9  # crocoddyl barriers take finite bounds
+
+
+@dataclass(frozen=True)
+class OCPSettings:
+    """Discretisation, constraint margins and penalty weights of the step OCPs.
+
+    Units are SI.  Weights multiply squared residuals integrated over time (s^-1).
+    """
+
+    dt: float = 0.025
+    ds_duration: float = 0.15
+    ss_duration: float = 0.70
+    start_ds_duration: float = 0.40
+    rest_duration: float = 0.40
+    max_iterations: int = 200
+    tolerance: float = 1e-3  # relative cost change over 25 iterations that counts as converged
+    friction: float = 0.7
+    zmp_margin: float = 0.02
+    clearance: float = 0.05
+    swing_lateral_gap: float = 0.03
+    w_torque: float = 1e-2
+    w_torque_rate: float = 1e-5
+    w_posture: float = 1.0
+    w_velocity: float = 1e-1
+    w_constraint: float = 1e4
+    w_limits: float = 1e5
+    w_touchdown: float = 10.0
+    w_anchor: float = 1e7
+    position_limit_margin: float = 0.02  # rad
+    velocity_limit_scale: float = 0.9
+    w_placement: float = 1e6
+    w_target: float = 1e5
+    w_swing_guide: float = 1e3
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def contact_6d(
+    robot: Robot, state: crocoddyl.StateMultibody, side: str, placement: pin.SE3, nu: int, dt: float
+) -> crocoddyl.ContactModel6D:
+    """A flat, rigid sole contact at ``placement``.
+
+    The contact is enforced at acceleration level; symplectic Euler integration lets the
+    sole drift by O(dt |J'v|) per knot, and an optimiser learns to exploit that drift (a
+    sliding stance foot saves torque).  Baumgarte feedback on the planned placement holds
+    the sole in place.
+    """
+    # position gain 1/(4 dt^2), velocity gain 1/dt: the velocity error is removed within a
+    # knot and the position drift is held to a few millimetres
+    gains = np.array([0.25 / dt**2, 1.0 / dt]) if dt > 0 else np.zeros(2)
+    return crocoddyl.ContactModel6D(state, robot.foot_frames[side], placement, pin.LOCAL_WORLD_ALIGNED, nu, gains)
+
+
+def torque_cost(state, nu: int) -> crocoddyl.CostModelResidual:
+    """Eq. (1) of the paper: the integral of squared joint torques."""
+    return crocoddyl.CostModelResidual(state, crocoddyl.ResidualModelControl(state, nu))
+
+
+def posture_cost(robot: Robot, state, nu: int, x_ref: np.ndarray, settings: OCPSettings):
+    """Weak pull towards a reference state; resolves null-space drift (a small J_pen term)."""
+    weights = np.concatenate(
+        [
+            np.zeros(3),  # base position is free: the step moves it
+            10.0 * np.ones(3),  # base orientation
+            settings.w_posture * np.ones(robot.nu),
+            settings.w_velocity * np.ones(robot.model.nv),
+        ]
+    )
+    residual = crocoddyl.ResidualModelState(state, x_ref, nu)
+    return crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(weights**2), residual)
+
+
+def wrench_cone_cost(robot: Robot, state, side: str, nu: int, settings: OCPSettings):
+    """Friction cone, unilateral normal force and ZMP/CoP inside the sole with a margin."""
+    sole = robot.sole
+    half_length = min(sole.front, sole.back) - settings.zmp_margin
+    half_width = sole.half_width - settings.zmp_margin
+    cone = crocoddyl.WrenchCone(np.eye(3), settings.friction, np.array([2 * half_length, 2 * half_width]), 4, True)
+    residual = crocoddyl.ResidualModelContactWrenchCone(state, robot.foot_frames[side], cone, nu, True)
+    activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(cone.lb, cone.ub))
+    return crocoddyl.CostModelResidual(state, activation, residual)
+
+
+def joint_limit_cost(robot: Robot, state, nu: int, settings: OCPSettings):
+    """Joint position and velocity limits from the URDF, as a barrier on the state.
+
+    A penalty barrier tolerates small violations, so it starts inside the limits by a
+    margin; the true limits then hold (``cocomopl dataset check`` verifies it).
+    """
+    q_margin, v_scale = settings.position_limit_margin, settings.velocity_limit_scale
+    lower = np.concatenate([-INF * np.ones(6), robot.q_lower + q_margin, -INF * np.ones(6), -v_scale * robot.v_max])
+    upper = np.concatenate([INF * np.ones(6), robot.q_upper - q_margin, INF * np.ones(6), v_scale * robot.v_max])
+    # the residual from the neutral state is, for revolute joints, the angles and velocities
+    residual = crocoddyl.ResidualModelState(state, state.zero(), nu)
+    activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(lower, upper, 1.0))
+    return crocoddyl.CostModelResidual(state, activation, residual)
+
+
+def swing_clearance_cost(robot: Robot, state, swing: str, nu: int, min_height: float, min_lateral: float):
+    """Swing sole above ``min_height`` and at least ``min_lateral`` from the stance sole (y, step frame)."""
+    sign = 1.0 if swing == "left" else -1.0
+    lower = np.array([-INF, -INF, min_height])
+    upper = np.array([INF, INF, INF])
+    if sign > 0:
+        lower[1] = min_lateral
+    else:
+        upper[1] = -min_lateral
+    residual = crocoddyl.ResidualModelFrameTranslation(state, robot.foot_frames[swing], np.zeros(3), nu)
+    activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(lower, upper))
+    return crocoddyl.CostModelResidual(state, activation, residual)
+
+
+def foot_placement_cost(robot: Robot, state, side: str, placement: pin.SE3, nu: int):
+    """Sole at a placement (position and flat orientation)."""
+    residual = crocoddyl.ResidualModelFramePlacement(state, robot.foot_frames[side], placement, nu)
+    return crocoddyl.CostModelResidual(state, residual)
+
+
+def state_target_cost(state, x_target: np.ndarray, nu: int):
+    """The whole state equal to a target: continuity with the neighbouring step."""
+    return crocoddyl.CostModelResidual(state, crocoddyl.ResidualModelState(state, x_target, nu))
+
+
+def contact_knot(
+    robot: Robot,
+    state: crocoddyl.StateMultibody,
+    stance: dict[str, pin.SE3],
+    x_ref: np.ndarray,
+    settings: OCPSettings,
+    dt: float,
+    swing: str | None = None,
+    swing_guide: pin.SE3 | None = None,
+    clearance: float = 0.0,
+    x_target: np.ndarray | None = None,
+) -> crocoddyl.IntegratedActionModelEuler:
+    """One knot of a double-support (two stance feet) or single-support (one) phase.
+
+    ``stance`` maps each foot in contact to its sole placement.
+
+    With ``dt == 0`` it is a terminal knot: only state costs count, and ``x_target``
+    pins the state (continuity with the neighbouring step).
+    """
+    terminal = dt == 0.0
+    actuation = crocoddyl.ActuationModelFloatingBase(state)
+    nu = actuation.nu
+    contacts = crocoddyl.ContactModelMultiple(state, nu)
+    costs = crocoddyl.CostModelSum(state, nu)
+    for side, placement in stance.items():
+        contacts.addContact(f"{side}_contact", contact_6d(robot, state, side, placement, nu, dt))
+        # the discretised contact lets a sole creep; an optimiser would use that to save
+        # torque, so the sole is also held at its placement by a stiff penalty
+        costs.addCost(f"{side}_anchor", foot_placement_cost(robot, state, side, placement, nu), settings.w_anchor)
+        if not terminal:
+            costs.addCost(f"{side}_wrench_cone", wrench_cone_cost(robot, state, side, nu, settings), settings.w_constraint)
+    if not terminal:
+        costs.addCost("torque", torque_cost(state, nu), settings.w_torque)
+    if x_target is not None:
+        costs.addCost("continuity", state_target_cost(state, x_target, nu), settings.w_target)
+    costs.addCost("posture", posture_cost(robot, state, nu, x_ref, settings), 1.0)
+    costs.addCost("joint_limits", joint_limit_cost(robot, state, nu, settings), settings.w_limits)
+    if swing is not None:
+        costs.addCost(
+            "swing_clearance",
+            swing_clearance_cost(robot, state, swing, nu, clearance, settings.swing_lateral_gap + 2 * robot.sole.half_width),
+            settings.w_constraint * 10,
+        )
+        if swing_guide is not None:
+            costs.addCost("swing_guide", foot_placement_cost(robot, state, swing, swing_guide, nu), settings.w_swing_guide)
+    dynamics = crocoddyl.DifferentialActionModelContactFwdDynamics(state, actuation, contacts, costs, 0.0, True)
+    model = crocoddyl.IntegratedActionModelEuler(dynamics, dt)
+    model.u_lb = -robot.tau_max
+    model.u_ub = robot.tau_max
+    return model
+
+
+def impulse_knot(
+    robot: Robot,
+    state: crocoddyl.StateMultibody,
+    landing: str,
+    placement: pin.SE3,
+    x_ref: np.ndarray,
+    settings: OCPSettings,
+) -> crocoddyl.ActionModelImpulseFwdDynamics:
+    """Touchdown: the swing sole lands flat at ``placement``; both feet get an impulse."""
+    impulses = crocoddyl.ImpulseModelMultiple(state)
+    for side in ("left", "right"):
+        impulses.addImpulse(
+            f"{side}_impulse",
+            crocoddyl.ImpulseModel6D(state, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED),
+        )
+    costs = crocoddyl.CostModelSum(state, 0)
+    costs.addCost("landing", foot_placement_cost(robot, state, landing, placement, 0), settings.w_placement)
+    costs.addCost("posture", posture_cost(robot, state, 0, x_ref, settings), 1.0)
+    # the pre-impact state is no running knot's input: limits and a soft touchdown here
+    costs.addCost("joint_limits", joint_limit_cost(robot, state, 0, settings), settings.w_limits * settings.dt)
+    touchdown = crocoddyl.ResidualModelFrameVelocity(
+        state, robot.foot_frames[landing], pin.Motion.Zero(), pin.LOCAL_WORLD_ALIGNED, 0
+    )
+    costs.addCost("touchdown_velocity", crocoddyl.CostModelResidual(state, touchdown), settings.w_touchdown)
+    model = crocoddyl.ActionModelImpulseFwdDynamics(state, impulses, costs)
+    return model

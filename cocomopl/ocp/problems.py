@@ -1,0 +1,235 @@
+"""Multi-phase shooting problems for the four kinds of walking step.
+
+Every problem is built for right support first (the left foot swings first) in the *step
+frame*: the right sole at the origin, x forward, z up.  Left-support steps are obtained by
+mirroring (:mod:`cocomopl.robot.mirror`).  A step is a list of :class:`Phase` s -- double
+support, single support, touchdown impulse -- that :func:`build_problem` turns into knots.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import crocoddyl
+import numpy as np
+import pinocchio as pin
+
+from cocomopl.motion import StepSpec
+from cocomopl.ocp.models import OCPSettings, contact_knot, impulse_knot
+from cocomopl.ocp.posture import inverse_kinematics
+from cocomopl.robot import Robot, mirror_state
+
+OTHER = {"left": "right", "right": "left"}
+
+
+@dataclass
+class Phase:
+    """One phase of a step.
+
+    ``kind`` is ``"ds"`` (both feet down), ``"ss"`` (``swing`` in the air, from
+    ``swing_from`` to ``swing_to``, (x, y) in metres) or ``"impact"`` (``swing`` lands).
+    """
+
+    kind: str
+    knots: int = 0
+    swing: str | None = None
+    swing_from: tuple[float, float] | None = None
+    swing_to: tuple[float, float] | None = None
+
+
+@dataclass
+class StepPlan:
+    """The phases of one OCP, its initial state and, where continuity demands, its end state."""
+
+    spec: StepSpec
+    phases: list[Phase]
+    x0: np.ndarray
+    x_target: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+
+def foot_separation(robot: Robot) -> float:
+    """Lateral distance between the soles in the reference posture (m)."""
+    left = robot.frame_placement(robot.q_ref, robot.foot_frames["left"]).translation
+    right = robot.frame_placement(robot.q_ref, robot.foot_frames["right"]).translation
+    return round(float(left[1] - right[1]), 4)
+
+
+def translate_state(robot: Robot, x: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """Move a state's floating base horizontally (velocities are in the base frame: unchanged)."""
+    out = np.array(x, dtype=float, copy=True)
+    out[..., 0] += dx
+    out[..., 1] += dy
+    return out
+
+
+def next_step_state(robot: Robot, x_start_next: np.ndarray, landed_at: tuple[float, float]) -> np.ndarray:
+    """Where the next step's start state lies in this step's frame.
+
+    ``x_start_next`` is the next step's start in its own (right-support) frame; the next
+    step stands on the foot that just landed at ``landed_at``, so it is mirrored and moved
+    there.
+    """
+    return translate_state(robot, mirror_state(robot, x_start_next), *landed_at)
+
+
+def _knots(duration: float, dt: float) -> int:
+    return max(2, int(round(duration / dt)))
+
+
+def walk_phases(
+    specs: list[StepSpec],
+    separation: float,
+    settings: OCPSettings,
+    durations: tuple[float, float] | None = None,
+) -> list[Phase]:
+    """Phases of consecutive steps, feet alternating, the first swing foot the left one.
+
+    Positions are in the first step's frame (right sole at the origin).  ``durations`` =
+    (double support, single support) in seconds overrides the defaults.
+    """
+    ds, ss = durations if durations is not None else (settings.ds_duration, settings.ss_duration)
+    dt = settings.dt
+    first = specs[0]
+    feet = {"right": 0.0, "left": 0.0 if first.kind == "start" else -first.start_length}
+    lane = {"right": 0.0, "left": separation}
+    phases: list[Phase] = []
+    swing = "left"
+
+    def step(to_x: float, ds_time: float) -> None:
+        nonlocal swing
+        phases.append(Phase("ds", _knots(ds_time, dt)))
+        y = lane[swing]
+        phases.append(Phase("ss", _knots(ss, dt), swing, (feet[swing], y), (to_x, y)))
+        phases.append(Phase("impact", swing=swing, swing_to=(to_x, y)))
+        feet[swing] = to_x
+        swing = OTHER[swing]
+
+    for spec in specs:
+        stance_x = feet[OTHER[swing]]
+        if spec.kind == "start":
+            step(stance_x + spec.end_length, max(ds, settings.start_ds_duration))
+        elif spec.kind in ("cyclic", "transition"):
+            step(stance_x + spec.end_length, ds)
+        elif spec.kind == "stop":
+            # one more step of the same length, then the other foot closes up beside it
+            step(stance_x + spec.start_length, ds)
+            step(feet[OTHER[swing]], ds)
+            phases.append(Phase("ds", _knots(settings.rest_duration, dt)))
+        else:
+            raise ValueError(f"unknown step kind {spec.kind!r}")
+    return phases
+
+
+def landing_point(phases: list[Phase]) -> tuple[float, float]:
+    """Where the last foot to touch down landed, (x, y) in the problem's frame."""
+    return [p for p in phases if p.kind == "impact"][-1].swing_to
+
+
+def _swing_guide(phase: Phase, s: float, clearance: float) -> pin.SE3:
+    """A smooth reference for the swing sole at phase fraction ``s``: it only steers the
+    solver's early iterations (small weight), the landing and clearance are what count."""
+    blend = 0.5 - 0.5 * np.cos(np.pi * s)
+    start, end = np.asarray(phase.swing_from), np.asarray(phase.swing_to)
+    xy = start + blend * (end - start)
+    z = (clearance + 0.02) * np.sin(np.pi * s) ** 2 * 1.6
+    return pin.SE3(np.eye(3), np.array([xy[0], xy[1], z]))
+
+
+def _flat(xy: tuple[float, float]) -> pin.SE3:
+    return pin.SE3(np.eye(3), np.array([xy[0], xy[1], 0.0]))
+
+
+def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocoddyl.ShootingProblem:
+    """A Crocoddyl shooting problem for a step plan."""
+    state = crocoddyl.StateMultibody(robot.model)
+    x_ref = robot.state_from_posture(robot.q_ref)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, plan.x0[: robot.model.nq])
+    feet = {side: _flat(data.oMf[robot.foot_frames[side]].translation[:2]) for side in ("left", "right")}
+    knots: list = []
+    for phase in plan.phases:
+        if phase.kind == "ds":
+            knots += [contact_knot(robot, state, dict(feet), x_ref, settings, settings.dt) for _ in range(phase.knots)]
+        elif phase.kind == "ss":
+            stance = {OTHER[phase.swing]: feet[OTHER[phase.swing]]}
+            for k in range(phase.knots):
+                s = (k + 1) / phase.knots
+                in_air = 0.25 <= s <= 0.75
+                knots.append(
+                    contact_knot(
+                        robot,
+                        state,
+                        stance,
+                        x_ref,
+                        settings,
+                        settings.dt,
+                        swing=phase.swing,
+                        swing_guide=_swing_guide(phase, s, settings.clearance),
+                        clearance=settings.clearance if in_air else -1.0,
+                    )
+                )
+        elif phase.kind == "impact":
+            feet[phase.swing] = _flat(phase.swing_to)
+            knots.append(impulse_knot(robot, state, phase.swing, feet[phase.swing], x_ref, settings))
+        else:
+            raise ValueError(f"unknown phase kind {phase.kind!r}")
+    terminal = contact_knot(robot, state, dict(feet), x_ref, settings, 0.0, x_target=plan.x_target)
+    return crocoddyl.ShootingProblem(plan.x0, knots, terminal)
+
+
+def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: OCPSettings) -> list[np.ndarray]:
+    """A kinematic warm start: feet on their planned paths, the CoM shifted over the stance
+    foot in double support and kept there in single support, solved knot by knot by
+    inverse kinematics; velocities by finite differences."""
+    model = robot.model
+    nq = model.nq
+    data = model.createData()
+    q = x0[:nq].copy()
+    pin.framesForwardKinematics(model, data, q)
+    feet = {side: data.oMf[robot.foot_frames[side]].translation.copy() for side in ("left", "right")}
+    feet = {side: np.array([p[0], p[1], 0.0]) for side, p in feet.items()}
+    com = pin.centerOfMass(model, data, q)[:2].copy()
+    postures = [q]
+    inward = {"left": -0.01, "right": 0.01}
+
+    def next_swing(i: int) -> str | None:
+        return next((p.swing for p in phases[i:] if p.kind == "ss"), None)
+
+    for i, phase in enumerate(phases):
+        if phase.kind == "ds":
+            swing = next_swing(i)
+            if swing is None:
+                goal = 0.5 * (feet["left"][:2] + feet["right"][:2])
+            else:
+                stance = OTHER[swing]
+                goal = feet[stance][:2] + np.array([0.0, inward[stance]])
+            for k in range(phase.knots):
+                c = com + (goal - com) * (k + 1) / phase.knots
+                postures.append(inverse_kinematics(robot, feet, c, postures[-1], iterations=20, check=False))
+            com = goal
+        elif phase.kind == "ss":
+            for k in range(phase.knots):
+                s = (k + 1) / phase.knots
+                feet[phase.swing] = _swing_guide(phase, s, settings.clearance).translation
+                postures.append(inverse_kinematics(robot, feet, com, postures[-1], iterations=20, check=False))
+        else:  # impact: no time passes
+            feet[phase.swing] = np.array([phase.swing_to[0], phase.swing_to[1], 0.0])
+            postures.append(postures[-1])
+    xs = [x0]
+    for k in range(1, len(postures)):
+        dt = settings.dt if phases_time_step(phases, k - 1) else 0.0
+        v = pin.difference(model, postures[k - 1], postures[k]) / dt if dt > 0 else xs[-1][nq:]
+        xs.append(np.concatenate([postures[k], v]))
+    return xs
+
+
+def phases_time_step(phases: list[Phase], knot: int) -> bool:
+    """Whether knot ``knot`` (0-based) of the phases takes time (False at impacts)."""
+    k = 0
+    for phase in phases:
+        n = 1 if phase.kind == "impact" else phase.knots
+        if knot < k + n:
+            return phase.kind != "impact"
+        k += n
+    return True

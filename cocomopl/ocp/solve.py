@@ -1,0 +1,337 @@
+"""Solving step OCPs: the four kinds, cyclic start states, warm starts and solver statistics.
+
+The dependency between problems follows the paper: every step that begins at step length
+``L`` begins in the same state ``S(L)``, the start state of the cyclic step of length
+``L``.  :func:`cyclic_state` finds it; start, transition and stop steps are then solved
+with their ends pinned to those states, so that consecutive steps join.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import crocoddyl
+import numpy as np
+import pinocchio as pin
+
+from cocomopl.analysis.feasibility import check_motion, tolerances, violations
+from cocomopl.errors import Error
+from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
+from cocomopl.motion import Motion, StepSpec
+from cocomopl.ocp.models import OCPSettings
+from cocomopl.ocp.posture import double_support_posture
+from cocomopl.ocp.problems import (
+    OTHER,
+    Phase,
+    StepPlan,
+    build_problem,
+    foot_separation,
+    initial_guess,
+    landing_point,
+    next_step_state,
+    translate_state,
+    walk_phases,
+)
+from cocomopl.robot import Robot, mirror_state
+
+CHUNK = 25  # solver iterations between convergence tests
+WALK_ITERATIONS = 60  # the warm-up walk of cyclic_state: its cost has levelled off by then
+
+
+@dataclass
+class Solution:
+    """A solved OCP: states ``xs`` (N+1, nx), controls ``us`` (N, nu) (empty rows at impacts),
+    the plan it solved and solver statistics."""
+
+    plan: StepPlan
+    xs: np.ndarray
+    us: list[np.ndarray]
+    forces: list[dict[str, np.ndarray]]
+    stats: dict = field(default_factory=dict)
+
+
+def solve_plan(
+    robot: Robot,
+    plan: StepPlan,
+    settings: OCPSettings,
+    guess: str | list[np.ndarray] = "kinematic",
+    max_iterations: int | None = None,
+) -> Solution:
+    """Solve one plan with Crocoddyl's box-constrained FDDP (torque limits are hard bounds).
+
+    ``guess`` is the initial state trajectory: ``"kinematic"`` (feet on their paths by
+    inverse kinematics), ``"static"`` (the initial state held) or explicit states.
+    """
+    problem = build_problem(robot, plan, settings)
+    problem.nthreads = 1  # parallelism is across OCPs, not inside one
+    solver = crocoddyl.SolverBoxFDDP(problem)
+    if isinstance(guess, str):
+        if guess not in ("kinematic", "static"):
+            raise ValueError(f"unknown initial guess {guess!r}")
+        if guess == "kinematic":
+            xs_init = initial_guess(robot, plan.phases, plan.x0, settings)
+        else:
+            xs_init = [plan.x0] * (problem.T + 1)
+    else:
+        xs_init = [np.asarray(x) for x in guess]
+    xs_init[0] = plan.x0
+    us_init = problem.quasiStatic(xs_init[:-1])
+    budget = max_iterations or settings.max_iterations
+    start = time.perf_counter()
+    iterations, converged, previous_cost = 0, False, np.inf
+    # FDDP's own stop test is rarely met on these stiff, barrier-laden problems even when
+    # the cost has long stopped moving; so solve in chunks and also accept a plateau
+    while iterations < budget and not converged:
+        chunk = min(CHUNK, budget - iterations)
+        solved = solver.solve(xs_init, us_init, chunk, False)
+        iterations += solver.iter
+        xs_init, us_init = list(solver.xs), list(solver.us)
+        plateau = abs(previous_cost - solver.cost) < settings.tolerance * max(1.0, abs(solver.cost))
+        converged = solver.ffeas < 1e-6 and (solved or plateau)
+        previous_cost = solver.cost
+        if solver.iter == 0:
+            break
+    elapsed = time.perf_counter() - start
+    stats = {
+        "iterations": iterations,
+        "cost": float(solver.cost),
+        "feasibility": float(solver.ffeas),
+        "stop": float(solver.stop),
+        "converged": bool(converged),
+        "solve_time_s": elapsed,
+    }
+    # the datas hold the last line-search trial; evaluate the accepted trajectory again
+    problem.calc(list(solver.xs), list(solver.us))
+    forces = []
+    for model, data in zip(problem.runningModels, problem.runningDatas):
+        if isinstance(model, crocoddyl.ActionModelImpulseFwdDynamics):
+            forces.append({})
+            continue
+        contacts = data.differential.multibody.contacts.contacts.todict()
+        forces.append({name.split("_")[0]: np.array(c.f.vector) for name, c in contacts.items()})
+    return Solution(plan, np.array(solver.xs), [np.array(u) for u in solver.us], forces, stats)
+
+
+WALK_STEPS = {"start": [0], "cyclic": [2], "stop": [3, 4, 5]}  # double-support phases of each spec
+
+
+def warm_up_walk(robot: Robot, length: float, settings: OCPSettings) -> Solution:
+    """A short walk at one step length -- start, two cyclic steps, stop -- from rest to rest.
+
+    A single cyclic step cannot be solved for its own start state with a DDP solver, whose
+    initial state is fixed; a walk settles into its gait by the second cyclic step, whose
+    start is the cyclic state ``S(L)``.  The walk's steps also warm-start the single-step
+    OCPs of the same length.
+    """
+    separation = foot_separation(robot)
+    x_rest = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
+    specs = [
+        StepSpec("start", 0.0, length),
+        StepSpec("cyclic", length, length),
+        StepSpec("cyclic", length, length),
+        StepSpec("stop", length, 0.0),
+    ]
+    phases = walk_phases(specs, separation, settings)
+    end_x = landing_point(phases)[0]
+    x_end = robot.state_from_posture(double_support_posture(robot, (end_x, separation), (end_x, 0.0)))
+    # the walk only needs to settle into its gait, not to converge tightly
+    return solve_plan(robot, StepPlan(specs[0], phases, x_rest, x_end), settings, max_iterations=WALK_ITERATIONS)
+
+
+def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
+    """The states of the walk's ``start``, second ``cyclic`` or ``stop`` step, moved into
+    that step's own right-support frame."""
+    phases = walk.plan.phases
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, walk.xs[0][: robot.model.nq])
+    feet = {side: data.oMf[robot.foot_frames[side]].translation[:2].copy() for side in ("left", "right")}
+    ds_seen, k, first, stance = -1, 0, None, None
+    wanted = WALK_STEPS[kind]
+    for idx, phase in enumerate(phases):
+        if phase.kind == "ds":
+            ds_seen += 1
+            if ds_seen == wanted[0]:
+                first = k
+                stance = OTHER[next(p.swing for p in phases[idx:] if p.kind == "ss")]
+                origin = feet[stance].copy()
+            if ds_seen == wanted[-1] + 1:
+                break
+        if phase.kind == "impact":
+            feet[phase.swing] = np.asarray(phase.swing_to, dtype=float)
+        k += 1 if phase.kind == "impact" else phase.knots
+    last = k if ds_seen == wanted[-1] + 1 else len(walk.xs) - 1
+    segment = translate_state(robot, walk.xs[first : last + 1], -origin[0], -origin[1])
+    if stance == "left":
+        segment = mirror_state(robot, segment)
+    return list(segment)
+
+
+def solve_with_retries(
+    robot: Robot,
+    spec: StepSpec,
+    start_states: dict[float, np.ndarray],
+    settings: OCPSettings,
+    guesses: list,
+) -> tuple[Solution | None, list[dict]]:
+    """Solve a step from each initial guess in turn until one converges.
+
+    Later attempts get twice the iteration budget.  Returns the converged solution (or
+    None) and a record of every attempt.
+    """
+    attempts = []
+    for i, guess in enumerate(guesses):
+        label = guess if isinstance(guess, str) else "warm start"
+        budget = settings.max_iterations * (1 if i == 0 else 2)
+        try:
+            solution = solve_step(robot, spec, start_states, settings, guess, budget)
+        except Error as exc:
+            attempts.append({"guess": label, "error": str(exc)})
+            continue
+        record = {"guess": label, **solution.stats}
+        attempts.append(record)
+        if not solution.stats["converged"]:
+            continue
+        # a converged penalty formulation can still sit in a poor local minimum that breaks
+        # a constraint: only a solution that passes the independent checks is accepted
+        limits = tolerances(settings.dt)
+        failed = violations(check_motion(robot, to_motion(robot, solution, settings), settings.friction), limits)
+        gap = target_error(robot, solution)
+        if gap > limits["continuity"]:
+            failed.append("continuity")
+        record.update(failed_checks=failed, target_error=gap)
+        if not failed:
+            solution.stats["attempts"] = attempts
+            return solution, attempts
+    return None, attempts
+
+
+def solve_length(
+    robot: Robot,
+    length: float,
+    settings: OCPSettings,
+    kinds: tuple[str, ...] = ("cyclic", "start", "stop"),
+    cyclic_start: np.ndarray | None = None,
+) -> tuple[dict[str, Solution | None], dict]:
+    """The cyclic, start and stop steps of one length, and the cyclic start state ``S(L)``.
+
+    ``cyclic_start`` is ``S(L)`` when the cyclic step is already solved; otherwise the
+    warm-up walk provides it.  Returns ``({kind: solution or None}, {"start_state": S(L),
+    "attempts": {kind: [...]}, "walk": solver statistics})``.
+    """
+    walk = warm_up_walk(robot, length, settings)
+    if cyclic_start is None:
+        cyclic_start = walk_segment(robot, walk, "cyclic")[0]
+    states = {length: cyclic_start}
+    solutions, attempts = {}, {}
+    for kind in kinds:
+        spec = {
+            "cyclic": StepSpec("cyclic", length, length),
+            "start": StepSpec("start", 0.0, length),
+            "stop": StepSpec("stop", length, 0.0),
+        }[kind]
+        guesses = [walk_segment(robot, walk, kind), "kinematic", "static"]
+        solutions[kind], attempts[kind] = solve_with_retries(robot, spec, states, settings, guesses)
+    return solutions, {"start_state": cyclic_start, "attempts": attempts, "walk": walk.stats}
+
+
+def step_plan(robot: Robot, spec: StepSpec, start_states: dict[float, np.ndarray], settings: OCPSettings) -> StepPlan:
+    """Initial state, phases and continuity target of a right-support step ``spec``."""
+    separation = foot_separation(robot)
+    phases = walk_phases([spec], separation, settings)
+    if spec.kind == "start":
+        x0 = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
+    else:
+        x0 = start_states[spec.start_length]
+    if spec.kind == "stop":
+        x = landing_point(phases)[0]
+        target = robot.state_from_posture(double_support_posture(robot, (x, separation), (x, 0.0)))
+    else:
+        target = next_step_state(robot, start_states[spec.end_length], landing_point(phases))
+    return StepPlan(spec, phases, x0, target)
+
+
+def solve_step(
+    robot: Robot,
+    spec: StepSpec,
+    start_states: dict[float, np.ndarray],
+    settings: OCPSettings,
+    guess: str | list[np.ndarray] = "kinematic",
+    max_iterations: int | None = None,
+) -> Solution:
+    """Solve a right-support step whose neighbours start in ``start_states[length]``."""
+    if spec.swing_side != "left":
+        raise Error("only right-support steps (left swing) are solved; left ones come by mirroring")
+    plan = step_plan(robot, spec, start_states, settings)
+    return solve_plan(robot, plan, settings, guess, max_iterations)
+
+
+def to_motion(robot: Robot, solution: Solution, settings: OCPSettings, producer: str = "ocp") -> Motion:
+    """The :class:`Motion` of a solved step (in its step frame)."""
+    xs, nq = solution.xs, robot.model.nq
+    n = len(xs)
+    t = np.zeros(n)
+    tau = np.zeros((n, robot.nu))
+    wrenches = np.zeros((n, 2, 6))
+    contact = np.zeros((n, 2), dtype=bool)
+    phases, impacts = [], []
+    k = 0
+    for phase in solution.plan.phases:
+        if phase.kind == "impact":
+            impacts.append(k)
+            t[k + 1] = t[k]
+            tau[k], wrenches[k], contact[k] = tau[k - 1], wrenches[k - 1], contact[k - 1]
+            k += 1
+            continue
+        phases.append((phase.kind, k, k + phase.knots))
+        for _ in range(phase.knots):
+            t[k + 1] = t[k] + settings.dt
+            tau[k] = solution.us[k]
+            for j, side in enumerate(SIDES):
+                if side in solution.forces[k]:
+                    wrenches[k, j] = solution.forces[k][side]
+                    contact[k, j] = True
+            k += 1
+    tau[-1], wrenches[-1], contact[-1] = tau[-2], wrenches[-2], True
+    q = xs[:, :nq]
+    zmp = zmp_from_wrenches(sole_placements(robot, q), wrenches)
+    return Motion(
+        t=t,
+        q=q,
+        v=xs[:, nq:],
+        tau=tau,
+        wrenches=wrenches,
+        contact=contact,
+        zmp=zmp,
+        phases=phases,
+        impacts=np.array(impacts, dtype=int),
+        steps=[solution.plan.spec],
+        step_starts=np.array([0], dtype=int),
+        joint_names=list(robot.joint_names),
+        robot=robot.name,
+        meta={"producer": producer, "solver": solution.stats},
+    )
+
+
+def target_error(robot: Robot, solution: Solution) -> float:
+    """Largest difference (tangent space) between a step's end and the state it must reach."""
+    target = solution.plan.x_target
+    nq = robot.model.nq
+    dq = pin.difference(robot.model, target[:nq], solution.xs[-1][:nq])
+    dv = solution.xs[-1][nq:] - target[nq:]
+    return float(max(np.abs(dq).max(), np.abs(dv).max()))
+
+
+__all__ = [
+    "Solution",
+    "target_error",
+    "solve_length",
+    "solve_with_retries",
+    "warm_up_walk",
+    "walk_segment",
+    "mirror_state",
+    "solve_plan",
+    "solve_step",
+    "step_plan",
+    "to_motion",
+]

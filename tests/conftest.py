@@ -1,0 +1,30 @@
+"""Shared fixtures: the robot and one small dataset, solved once per test session.
+
+The OCPs here are deliberately coarse (50 ms knots, short phases): the tests check
+properties -- dynamics, mirroring, continuity, limits -- not the quality of the gait.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from cocomopl.ocp.models import OCPSettings
+from cocomopl.robot import Robot
+
+SMALL = OCPSettings(dt=0.05, ds_duration=0.1, ss_duration=0.6, start_ds_duration=0.3, rest_duration=0.2, max_iterations=150)
+SMALL_LENGTH = 0.2
+
+
+@pytest.fixture(scope="session")
+def robot() -> Robot:
+    return Robot("talos")
+
+
+@pytest.fixture(scope="session")
+def small_dataset(tmp_path_factory) -> Path:
+    from cocomopl.dataset.generate import generate
+
+    out = tmp_path_factory.mktemp("dataset") / "small.h5"
+    summary = generate(out, (SMALL_LENGTH,), settings=SMALL, workers=2, command="pytest", progress=False)
+    assert summary["failed"] == [], summary
+    return out

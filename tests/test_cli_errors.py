@@ -1,0 +1,113 @@
+"""Bad input: one-line error, non-zero exit, no traceback, no partial file."""
+
+import subprocess
+import sys
+
+import pytest
+
+from cocomopl.cli import main
+
+
+def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "cocomopl.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120)
+
+
+def assert_one_line_error(result: subprocess.CompletedProcess, *words: str) -> None:
+    assert result.returncode != 0
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+
+
+@pytest.mark.parametrize(
+    "lengths, words",
+    [
+        ("abc", ["'abc'", "not a number"]),
+        ("150,-250", ["'-250'", "positive"]),
+        ("150,nan", ["'nan'", "positive"]),
+        ("0", ["'0'", "positive"]),
+        ("150,150", ["distinct"]),
+        ("", ["no step lengths"]),
+        ("5000", ["5000", "beyond reach"]),
+    ],
+)
+def test_bad_lengths(tmp_path, lengths, words):
+    out = tmp_path / "d.h5"
+    result = run_cli("dataset", "generate", "--lengths-mm", lengths, "--out", str(out))
+    assert_one_line_error(result, *words)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_length_beyond_the_robots_reach(tmp_path):
+    result = run_cli("dataset", "generate", "--lengths-mm", "150,700", "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "700 mm", "beyond talos's reach")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_stance_the_robot_cannot_take(tmp_path):
+    """Romeo's description sets no reach: inverse kinematics finds its legs too short."""
+    result = run_cli("dataset", "generate", "--robot", "romeo", "--lengths-mm", "780", "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "cannot place its feet")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unknown_robot(tmp_path):
+    result = run_cli("dataset", "generate", "--robot", "wall-e", "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "unknown robot", "wall-e")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_urdf(tmp_path):
+    desc = tmp_path / "bot.json"
+    desc.write_text('{"name": "bot", "urdf": "nowhere.urdf", "feet": {}, "sole": {}, "pelvis": "base"}')
+    result = run_cli("dataset", "generate", "--robot", str(desc), "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "URDF not found")
+    assert not (tmp_path / "d.h5").exists()
+
+
+@pytest.mark.parametrize("option", [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"]])
+def test_bad_numeric_options(tmp_path, option):
+    result = run_cli("dataset", "generate", *option, "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, option[0])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unreachable_scheduler(tmp_path):
+    result = run_cli("dataset", "generate", "--lengths-mm", "200", "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "Dask scheduler")
+    assert not (tmp_path / "d.h5").exists()
+
+
+@pytest.mark.parametrize("command", ["info", "check"])
+def test_unreadable_files(tmp_path, small_dataset, command):
+    missing = tmp_path / "missing.h5"
+    assert_one_line_error(run_cli("dataset", command, str(missing)), "not found")
+    foreign = tmp_path / "foreign.h5"
+    foreign.write_text("this is not HDF5")
+    assert_one_line_error(run_cli("dataset", command, str(foreign)), "not a readable HDF5")
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(small_dataset.read_bytes()[:5000])
+    assert_one_line_error(run_cli("dataset", command, str(truncated)), "truncated")
+    import h5py
+
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = [1, 2, 3]
+    assert_one_line_error(run_cli("dataset", command, str(other)), "not a cocomopl")
+    assert_one_line_error(run_cli("dataset", command, str(tmp_path)), "directory")
+
+
+def test_plot_unknown_motion(small_dataset, tmp_path):
+    result = run_cli("plot", str(small_dataset), "--motion", "nope", "--out", str(tmp_path / "p"))
+    assert_one_line_error(result, "no motion 'nope'")
+    assert not (tmp_path / "p").exists()
+
+
+def test_plot_writes_four_pngs(small_dataset, tmp_path, capsys):
+    assert main(["plot", str(small_dataset), "--motion", "cyclic_200_L", "--out", str(tmp_path / "p")]) == 0
+    files = sorted(p.name for p in (tmp_path / "p").iterdir())
+    assert files == ["contact_forces.png", "joint_angles.png", "torques.png", "zmp.png"]
+    for name in files:
+        assert (tmp_path / "p" / name).read_bytes()[:4] == b"\x89PNG"

@@ -1,0 +1,95 @@
+"""Dataset generation: file contents, info, check, resume after a kill, and the Dask path."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import pytest
+
+from cocomopl.cli import main
+from cocomopl.dataset.plan import training_specs
+from cocomopl.motion_file import read_motions
+
+from conftest import SMALL, SMALL_LENGTH
+
+
+def test_paper_plan_has_23_ocps():
+    specs = training_specs((0.15, 0.25, 0.30, 0.35, 0.40))
+    kinds = [s.kind for s in specs]
+    assert len(specs) == 23
+    assert (kinds.count("start"), kinds.count("cyclic"), kinds.count("transition"), kinds.count("stop")) == (5, 5, 8, 5)
+
+
+def test_info_json(small_dataset, capsys):
+    assert main(["dataset", "info", str(small_dataset), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["motions"] == 6
+    assert info["signals"] == 36
+    assert info["trajectories"] == 6 * 36
+    assert info["all_converged"] is True
+    assert info["mean_solve_time_s"] > 0
+    assert info["command"] == "pytest"
+    assert info["versions"]["pin"] == "4.0.0"
+
+
+def test_check_passes_and_reports_worst_values(small_dataset, capsys):
+    assert main(["dataset", "check", str(small_dataset), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["ok"] is True
+    for key in ("inverse_dynamics_residual", "zmp_margin", "torque_ratio", "continuity"):
+        assert key in report["worst"]
+
+
+def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
+    """Torques that no longer produce the motion are caught by inverse dynamics."""
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(small_dataset.read_bytes())
+    with h5py.File(bad, "r+") as f:
+        f["motions/cyclic_200_L/tau"][5, 3] += 10.0
+    assert main(["dataset", "check", str(bad), "--json"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    assert "inverse_dynamics_residual" in report["failures"]
+
+
+def test_resume_after_kill_recomputes_nothing_finished(tmp_path):
+    """Kill a run once a first step is saved; the rerun reuses it, file untouched."""
+    out = tmp_path / "resume.h5"
+    parts = tmp_path / "resume.h5.parts"
+    cmd = [sys.executable, "-m", "cocomopl.cli", "dataset", "generate", "--lengths-mm", "200,250",
+           "--dt", str(SMALL.dt), "--max-iterations", str(SMALL.max_iterations), "--workers", "1",
+           "--out", str(out), "--json"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 240
+    while time.time() < deadline and not list(parts.glob("*.h5")):
+        time.sleep(0.5)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    saved = {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")}
+    assert saved, "no step finished before the deadline"
+    assert not out.exists()
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    summary = json.loads(result.stdout)
+    assert summary["reused"] >= len(saved)
+    assert summary["solved"] + summary["reused"] == summary["ocps"] - len(summary["failed"])
+    motions, attrs = read_motions(out)
+    assert attrs["command"].startswith("cocomopl dataset generate")
+    for name in saved:  # finished parts were read, not rewritten: same modification time
+        part = parts / name
+        assert not part.exists() or part.stat().st_mtime_ns == saved[name]
+
+
+def test_dask_cluster_path(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    from cocomopl.dataset.generate import generate
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        out = tmp_path / "dask.h5"
+        summary = generate(out, (SMALL_LENGTH,), settings=SMALL, scheduler=cluster.scheduler_address, progress=False)
+    assert summary["failed"] == []
+    motions, attrs = read_motions(out)
+    assert len(motions) == 6
+    assert attrs["scheduler"] == cluster.scheduler_address
