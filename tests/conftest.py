@@ -11,7 +11,9 @@ import pytest
 from cocomopl.ocp.models import OCPSettings
 from cocomopl.robot import Robot
 
-SMALL = OCPSettings(dt=0.05, ds_duration=0.1, ss_duration=0.6, start_ds_duration=0.3, rest_duration=0.2, max_iterations=150)
+SMALL = OCPSettings(
+    dt=0.05, ds_duration=0.1, ss_duration=0.6, ss_search_step=0.0, start_ds_duration=0.3, rest_duration=0.2, max_iterations=150
+)
 SMALL_LENGTH = 0.2
 
 

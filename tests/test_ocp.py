@@ -86,3 +86,44 @@ def test_training_signals_are_36_and_all_vary(robot, motions):
     zmp_pelvis = sig["values"][:, 30:33]
     assert np.all(zmp_pelvis.std(axis=0) > 1e-4)  # all three ZMP coordinates vary in the pelvis frame
     assert sig["phase_time"][0] == 0.0 and sig["phase_time"][-1] == 2.0
+
+
+def test_phase_timing_is_searched_and_the_cheapest_kept(robot):
+    """The solver has no time variable: the single-support duration is searched outside it."""
+    from dataclasses import replace
+
+    from cocomopl.ocp.solve import solve_length
+
+    settings = replace(SMALL, ss_duration=0.6, ss_search_step=0.1, ss_bounds=(0.5, 0.7))
+    solutions, info = solve_length(robot, 0.2, settings, ("cyclic",))
+    costs = {c["ss_duration"]: c["cost"] for c in info["duration_search"] if c["cost"] is not None}
+    assert len(info["duration_search"]) >= 2, info["duration_search"]
+    assert info["durations"][1] == min(costs, key=costs.get)
+    assert solutions["cyclic"].stats["cost"] == min(costs.values())
+
+
+def test_descent_finds_the_grid_minimum():
+    from cocomopl.ocp.solve import descend
+
+    assert descend(lambda x: (x - 0.9) ** 2, 0.6, 0.1, (0.5, 1.2)) == pytest.approx(0.9)
+    assert descend(lambda x: (x - 0.2) ** 2, 0.6, 0.1, (0.5, 1.2)) == pytest.approx(0.5)
+    assert descend(lambda x: x, 0.6, 0.0, (0.5, 1.2)) == 0.6
+
+
+def test_torque_rate_term_smooths_torques(robot, motions):
+    """The paper's torque-rate control, as a penalty: torque jumps between knots shrink."""
+    from dataclasses import replace
+
+    from cocomopl.motion import StepSpec
+    from cocomopl.ocp.solve import solve_step, to_motion
+
+    cyclic = motions["cyclic_200_L"]
+    x0 = np.concatenate([cyclic.q[0], cyclic.v[0]])
+    warm = list(np.hstack([cyclic.q, cyclic.v]))
+    jumps = {}
+    for weight in (0.0, 5e-4):
+        settings = replace(SMALL, w_torque_rate=weight)
+        solution = solve_step(robot, StepSpec("cyclic", 0.2, 0.2), {0.2: x0}, settings, warm)
+        tau = to_motion(robot, solution, settings).tau[:-1]
+        jumps[weight] = np.abs(np.diff(tau, axis=0)).max()
+    assert jumps[5e-4] < 0.7 * jumps[0.0], jumps

@@ -13,7 +13,8 @@ from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot on the non-interactive Agg backend (files only, no display)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -22,10 +23,13 @@ def _pyplot():
     return plt
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
+    """Save a PNG atomically (a temporary file renamed into place) and close the figure."""
     tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.tight_layout()
     fig.savefig(tmp, dpi=110)
     os.replace(tmp, path)
+    pyplot().close(fig)
     return path
 
 
@@ -35,28 +39,44 @@ def _phase_shading(ax, motion: Motion) -> None:
             ax.axvspan(motion.t[first], motion.t[last], color="0.92", zorder=0)
 
 
-def plot_joint_angles(robot: Robot, motion: Motion, path: Path) -> Path:
-    plt = _pyplot()
-    legs, others = range(0, 12), range(12, robot.nu)  # URDF order: legs come first
-    fig, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
-    for ax, idx, title in ((axes[0], legs, "legs"), (axes[1], others, "torso, arms, head")):
+def _joint_groups(robot: Robot) -> list[tuple[str, list[int]]]:
+    legs = robot.leg_joint_indices()
+    return [("legs", legs), ("torso, arms, head", [i for i in range(robot.nu) if i not in legs])]
+
+
+def _plot_per_joint(
+    robot: Robot, motion: Motion, values: np.ndarray, what: str, unit: str, path: Path, held: bool
+) -> Path:
+    """Two panels (legs; the rest) of one value per actuated joint against time.
+
+    ``held`` values (torques) are constant over each knot interval and drawn as steps.
+    """
+    fig, axes = pyplot().subplots(2, 1, figsize=(10, 7), sharex=True)
+    for ax, (title, idx) in zip(axes, _joint_groups(robot)):
         _phase_shading(ax, motion)
         for i in idx:
-            ax.plot(motion.t, motion.q[:, 7 + i], lw=1, label=motion.joint_names[i])
-        ax.set_ylabel("angle (rad)")
-        ax.set_title(f"{motion.name}: joint angles, {title} (grey: double support)")
+            if held:
+                ax.step(motion.t, values[:, i], where="post", lw=1, label=motion.joint_names[i])
+            else:
+                ax.plot(motion.t, values[:, i], lw=1, label=motion.joint_names[i])
+        ax.set_ylabel(f"{what} ({unit})")
+        ax.set_title(f"{motion.name}: joint {what}s, {title} (grey: double support)")
         ax.legend(fontsize=6, ncol=4, loc="upper right")
     axes[1].set_xlabel("time (s)")
-    fig.tight_layout()
-    out = _save(fig, path)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
+
+
+def plot_joint_angles(robot: Robot, motion: Motion, path: Path) -> Path:
+    return _plot_per_joint(robot, motion, motion.q[:, 7:], "angle", "rad", path, held=False)
+
+
+def plot_torques(robot: Robot, motion: Motion, path: Path) -> Path:
+    return _plot_per_joint(robot, motion, motion.tau, "torque", "N m", path, held=True)
 
 
 def plot_zmp(robot: Robot, motion: Motion, path: Path) -> Path:
-    plt = _pyplot()
     soles = sole_placements(robot, motion.q)
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = pyplot().subplots(figsize=(8, 5))
     corners = robot.sole.corners()
     drawn = set()
     for k in range(motion.n):
@@ -76,16 +96,12 @@ def plot_zmp(robot: Robot, motion: Motion, path: Path) -> Path:
     ax.set_ylabel("y (m)")
     ax.set_title(f"{motion.name}: ZMP and soles in contact")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    out = _save(fig, path)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_contact_forces(robot: Robot, motion: Motion, path: Path) -> Path:
-    plt = _pyplot()
     weight = robot.mass * 9.81
-    fig, ax = plt.subplots(figsize=(10, 4))
+    fig, ax = pyplot().subplots(figsize=(10, 4))
     _phase_shading(ax, motion)
     for j, side in enumerate(SIDES):
         ax.step(motion.t, motion.wrenches[:, j, 2], where="post", label=f"{side} normal force")
@@ -94,27 +110,7 @@ def plot_contact_forces(robot: Robot, motion: Motion, path: Path) -> Path:
     ax.set_ylabel("force (N)")
     ax.set_title(f"{motion.name}: vertical contact forces")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    out = _save(fig, path)
-    plt.close(fig)
-    return out
-
-
-def plot_torques(robot: Robot, motion: Motion, path: Path) -> Path:
-    plt = _pyplot()
-    fig, axes = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
-    for ax, idx, title in ((axes[0], range(0, 12), "legs"), (axes[1], range(12, robot.nu), "torso, arms, head")):
-        _phase_shading(ax, motion)
-        for i in idx:
-            ax.step(motion.t, motion.tau[:, i], where="post", lw=1, label=motion.joint_names[i])
-        ax.set_ylabel("torque (N m)")
-        ax.set_title(f"{motion.name}: joint torques, {title}")
-        ax.legend(fontsize=6, ncol=4, loc="upper right")
-    axes[1].set_xlabel("time (s)")
-    fig.tight_layout()
-    out = _save(fig, path)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path)
 
 
 def plot_motion(robot: Robot, motion: Motion, out_dir: Path) -> list[Path]:

@@ -14,7 +14,7 @@ import os
 import shutil
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -44,24 +44,36 @@ def length_job(
     plain data in and out).  An already solved ``cyclic`` step fixes the start state."""
     robot = Robot(robot_name)
     opts = OCPSettings(**settings)
-    start_state = None if cyclic is None else np.concatenate([cyclic.q[0], cyclic.v[0]])
-    solutions, info = solve_length(robot, length, opts, kinds, start_state)
+    start_state = None
+    if cyclic is not None:  # resumed: the solved cyclic step fixes S(L) and the timing
+        start_state = np.concatenate([cyclic.q[0], cyclic.v[0]])
+        opts = replace(opts, **phase_durations(cyclic))
+    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state)
     result = JobResult()
     for kind, solution in solutions.items():
         spec = {"cyclic": StepSpec("cyclic", length, length), "start": StepSpec("start", 0.0, length),
                 "stop": StepSpec("stop", length, 0.0)}[kind]
         if solution is None:
-            result.failed[spec.name] = info["attempts"][kind]
+            result.failed[spec.name] = info["attempts"].get(kind, [])
         else:
-            result.motions[spec] = to_motion(robot, solution, opts)
+            motion = to_motion(robot, solution, opts)
+            motion.meta["duration_search"] = info["duration_search"]
+            result.motions[spec] = motion
     return result
+
+
+def phase_durations(cyclic: Motion) -> dict:
+    """The double- and single-support durations (s) of a solved cyclic step."""
+    (_, a, b), (_, c, d) = cyclic.phases[:2]
+    return {"ds_duration": float(cyclic.t[b] - cyclic.t[a]), "ss_duration": float(cyclic.t[d] - cyclic.t[c])}
 
 
 def transition_job(robot_name: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion) -> JobResult:
     """A transition step between the start states of two cyclic steps, warm-started from
     the cyclic step of its start length."""
     robot = Robot(robot_name)
-    opts = OCPSettings(**settings)
+    # the transition keeps the timing of the gait it leaves, whose cyclic step warm-starts it
+    opts = replace(OCPSettings(**settings), **phase_durations(cyclic_from))
     states = {
         spec.start_length: np.concatenate([cyclic_from.q[0], cyclic_from.v[0]]),
         spec.end_length: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
@@ -82,7 +94,7 @@ def _versions() -> dict:
 
     import cocomopl
 
-    names = ["pin", "crocoddyl", "mim-solvers", "example-robot-data", "numpy", "h5py"]
+    names = ["pin", "crocoddyl", "example-robot-data", "numpy", "h5py", "dask"]
     out = {"cocomopl": cocomopl.__version__, "python": sys.version.split()[0]}
     for name in names:
         try:

@@ -30,6 +30,8 @@ class OCPSettings:
     dt: float = 0.025
     ds_duration: float = 0.15
     ss_duration: float = 0.70
+    ss_search_step: float = 0.1  # single-support duration search, per length (0: no search)
+    ss_bounds: tuple[float, float] = (0.5, 1.2)
     start_ds_duration: float = 0.40
     rest_duration: float = 0.40
     max_iterations: int = 200
@@ -39,7 +41,7 @@ class OCPSettings:
     clearance: float = 0.05
     swing_lateral_gap: float = 0.03
     w_torque: float = 1e-2
-    w_torque_rate: float = 1e-5
+    w_torque_rate: float = 5e-5  # on the torque rate, (N m / s)^2 s; 0 switches it off
     w_posture: float = 1.0
     w_velocity: float = 1e-1
     w_constraint: float = 1e4

@@ -9,7 +9,7 @@ with their ends pinned to those states, so that consecutive steps join.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import crocoddyl
 import numpy as np
@@ -21,6 +21,7 @@ from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.ocp.models import OCPSettings
 from cocomopl.ocp.posture import double_support_posture
+from cocomopl.ocp.torque_rate import with_torque_rate
 from cocomopl.ocp.problems import (
     OTHER,
     Phase,
@@ -64,8 +65,6 @@ def solve_plan(
     inverse kinematics), ``"static"`` (the initial state held) or explicit states.
     """
     problem = build_problem(robot, plan, settings)
-    problem.nthreads = 1  # parallelism is across OCPs, not inside one
-    solver = crocoddyl.SolverBoxFDDP(problem)
     if isinstance(guess, str):
         if guess not in ("kinematic", "static"):
             raise ValueError(f"unknown initial guess {guess!r}")
@@ -77,6 +76,14 @@ def solve_plan(
         xs_init = [np.asarray(x) for x in guess]
     xs_init[0] = plan.x0
     us_init = problem.quasiStatic(xs_init[:-1])
+    nx = problem.runningModels[0].state.nx
+    smoothed = problem
+    if settings.w_torque_rate > 0:
+        # the torque before the first knot: holding the initial state quasi-statically
+        tau0 = us_init[0]
+        smoothed = with_torque_rate(problem, tau0, settings.w_torque_rate / settings.dt)
+        xs_init = _with_previous_torques(xs_init, us_init, tau0)
+    solver = crocoddyl.SolverBoxFDDP(smoothed)
     budget = max_iterations or settings.max_iterations
     start = time.perf_counter()
     iterations, converged, previous_cost = 0, False, np.inf
@@ -101,8 +108,9 @@ def solve_plan(
         "converged": bool(converged),
         "solve_time_s": elapsed,
     }
+    xs = np.array(solver.xs)[:, :nx]
     # the datas hold the last line-search trial; evaluate the accepted trajectory again
-    problem.calc(list(solver.xs), list(solver.us))
+    problem.calc(list(xs), list(solver.us))
     forces = []
     for model, data in zip(problem.runningModels, problem.runningDatas):
         if isinstance(model, crocoddyl.ActionModelImpulseFwdDynamics):
@@ -110,7 +118,17 @@ def solve_plan(
             continue
         contacts = data.differential.multibody.contacts.contacts.todict()
         forces.append({name.split("_")[0]: np.array(c.f.vector) for name, c in contacts.items()})
-    return Solution(plan, np.array(solver.xs), [np.array(u) for u in solver.us], forces, stats)
+    return Solution(plan, xs, [np.array(u) for u in solver.us], forces, stats)
+
+
+def _with_previous_torques(xs: list[np.ndarray], us: list[np.ndarray], tau0: np.ndarray) -> list[np.ndarray]:
+    """States augmented with the torque of the knot before (impulses carry it over)."""
+    previous, out = tau0, [np.concatenate([xs[0], tau0])]
+    for x, u in zip(xs[1:], us):
+        if len(u):
+            previous = u
+        out.append(np.concatenate([x, previous]))
+    return out
 
 
 WALK_STEPS = {"start": [0], "cyclic": [2], "stop": [3, 4, 5]}  # double-support phases of each spec
@@ -136,7 +154,8 @@ def warm_up_walk(robot: Robot, length: float, settings: OCPSettings) -> Solution
     end_x = landing_point(phases)[0]
     x_end = robot.state_from_posture(double_support_posture(robot, (end_x, separation), (end_x, 0.0)))
     # the walk only needs to settle into its gait, not to converge tightly
-    return solve_plan(robot, StepPlan(specs[0], phases, x_rest, x_end), settings, max_iterations=WALK_ITERATIONS)
+    plan = StepPlan(specs[0], phases, x_rest, x_end)
+    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), max_iterations=WALK_ITERATIONS)
 
 
 def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
@@ -215,24 +234,81 @@ def solve_length(
 ) -> tuple[dict[str, Solution | None], dict]:
     """The cyclic, start and stop steps of one length, and the cyclic start state ``S(L)``.
 
-    ``cyclic_start`` is ``S(L)`` when the cyclic step is already solved; otherwise the
-    warm-up walk provides it.  Returns ``({kind: solution or None}, {"start_state": S(L),
-    "attempts": {kind: [...]}, "walk": solver statistics})``.
+    Phase timing is free, as in the paper, but the solver has no time variable: the
+    single-support duration is searched outside it (:func:`descend` from
+    ``settings.ss_duration`` in steps of ``settings.ss_search_step``), and the cyclic step
+    of least cost (eq. 1 plus penalties) fixes the timing of this length's start and stop
+    steps too.  ``cyclic_start`` is ``S(L)`` when the cyclic
+    step is already solved (its timing is then that of ``settings``).
+
+    Returns ``({kind: solution or None}, info)`` with ``info`` holding ``start_state``,
+    ``durations`` (double, single support; s), ``duration_search`` and ``attempts``.
     """
-    walk = warm_up_walk(robot, length, settings)
+    spec_of = {
+        "cyclic": StepSpec("cyclic", length, length),
+        "start": StepSpec("start", 0.0, length),
+        "stop": StepSpec("stop", length, 0.0),
+    }
+    solutions, attempts, search = {}, {}, []
     if cyclic_start is None:
-        cyclic_start = walk_segment(robot, walk, "cyclic")[0]
+        tried: dict[float, tuple | None] = {}
+
+        def evaluate(ss: float) -> float:
+            """Cost of the cyclic step with single support ``ss`` (inf if none accepted)."""
+            ss = round(ss, 6)
+            if ss not in tried:
+                opts = replace(settings, ss_duration=ss)
+                walk = warm_up_walk(robot, length, opts)
+                x0 = walk_segment(robot, walk, "cyclic")[0]
+                guesses = [walk_segment(robot, walk, "cyclic"), "kinematic", "static"]
+                solution, record = solve_with_retries(robot, spec_of["cyclic"], {length: x0}, opts, guesses)
+                attempts.setdefault("cyclic", []).extend(record)
+                search.append({"ss_duration": ss, "cost": None if solution is None else solution.stats["cost"]})
+                tried[ss] = None if solution is None else (solution, record, walk, x0, opts)
+            return np.inf if tried[ss] is None else tried[ss][0].stats["cost"]
+
+        best = descend(evaluate, settings.ss_duration, settings.ss_search_step, settings.ss_bounds)
+        if tried[round(best, 6)] is None:
+            return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
+        solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
+    else:
+        walk = warm_up_walk(robot, length, settings)
     states = {length: cyclic_start}
-    solutions, attempts = {}, {}
     for kind in kinds:
-        spec = {
-            "cyclic": StepSpec("cyclic", length, length),
-            "start": StepSpec("start", 0.0, length),
-            "stop": StepSpec("stop", length, 0.0),
-        }[kind]
+        if kind == "cyclic":
+            continue
         guesses = [walk_segment(robot, walk, kind), "kinematic", "static"]
-        solutions[kind], attempts[kind] = solve_with_retries(robot, spec, states, settings, guesses)
-    return solutions, {"start_state": cyclic_start, "attempts": attempts, "walk": walk.stats}
+        solutions[kind], attempts[kind] = solve_with_retries(robot, spec_of[kind], states, settings, guesses)
+    info = {
+        "start_state": cyclic_start,
+        "durations": (settings.ds_duration, settings.ss_duration),
+        "duration_search": search,
+        "attempts": attempts,
+    }
+    return solutions, info
+
+
+def descend(cost, start: float, step: float, bounds: tuple[float, float]) -> float:
+    """A 1-D grid descent: from ``start``, move by ``step`` while the cost falls.
+
+    Returns the grid point of least cost found, within ``bounds``.  ``step == 0`` only
+    evaluates ``start``.
+    """
+    best, best_cost = start, cost(start)
+    if step <= 0:
+        return best
+    for direction in (1.0, -1.0):
+        x = best + direction * step
+        moved = False
+        while bounds[0] - 1e-9 <= x <= bounds[1] + 1e-9:
+            c = cost(x)
+            if c >= best_cost:
+                break
+            best, best_cost, moved = x, c, True
+            x += direction * step
+        if moved:
+            break
+    return best
 
 
 def step_plan(robot: Robot, spec: StepSpec, start_states: dict[float, np.ndarray], settings: OCPSettings) -> StepPlan:

@@ -270,6 +270,15 @@ class Robot:
         """Actuated joint angles ``q[..., 7:]``."""
         return q[..., 7:]
 
+    def leg_joint_indices(self) -> list[int]:
+        """Actuated-joint indices of the chains from the pelvis to the soles."""
+        out = set()
+        for frame in self.foot_frames.values():
+            for jid in self.model.supports[self.model.frames[frame].parentJoint]:
+                if jid >= 2:
+                    out.add(jid - 2)
+        return sorted(out)
+
     def state_from_posture(self, q: np.ndarray) -> np.ndarray:
         """A static state ``x = (q, 0)``."""
         return np.concatenate([q, np.zeros(self.model.nv)])
