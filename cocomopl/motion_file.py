@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -31,28 +32,22 @@ FORMAT_VERSION = 1
 _ARRAYS = ("t", "q", "v", "tau", "wrenches", "contact", "zmp", "impacts", "step_starts")
 
 
+@contextmanager
 def atomic_path(path: Path):
-    """A context manager yielding a temporary path that replaces ``path`` on success."""
-
-    class _Atomic:
-        def __enter__(self):
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-            os.close(fd)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a result file is an ordinary file
-            self.tmp = Path(tmp)
-            return self.tmp
-
-        def __exit__(self, exc_type, exc, tb):
-            if exc_type is None:
-                os.replace(self.tmp, path)
-            else:
-                self.tmp.unlink(missing_ok=True)
-            return False
-
-    return _Atomic()
+    """Yield a temporary path beside ``path`` that replaces it only if the block succeeds."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(name, 0o666 & ~umask)  # mkstemp makes 0600; a result file is an ordinary file
+    tmp = Path(name)
+    try:
+        yield tmp
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, path)
 
 
 def write_motion_group(group: h5py.Group, motion: Motion, signals: dict | None = None) -> None:

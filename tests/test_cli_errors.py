@@ -74,6 +74,11 @@ def test_bad_numeric_options(tmp_path, option):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_unwritable_output():
+    result = run_cli("dataset", "generate", "--lengths-mm", "200", "--out", "/proc/cocomopl/d.h5")
+    assert_one_line_error(result, "cannot write next to /proc/cocomopl/d.h5")
+
+
 def test_unreachable_scheduler(tmp_path):
     result = run_cli("dataset", "generate", "--lengths-mm", "200", "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "Dask scheduler")

@@ -78,7 +78,7 @@ def check_motion(robot: Robot, motion: Motion, friction: float) -> dict:
     ft = np.linalg.norm(forces[..., :2], axis=-1)[in_contact]
     slip = 0.0
     for j in range(2):
-        for kind, first, last in motion.phases:
+        for _, first, last in motion.phases:
             if motion.contact[first:last, j].all():
                 drift = np.linalg.norm(soles[first : last + 1, j] - soles[first, j], axis=1)
                 slip = max(slip, float(drift.max()))

@@ -164,7 +164,12 @@ def generate(
     robot = Robot(robot_name)  # fail fast on a bad robot before any process starts
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
-    parts.mkdir(parents=True, exist_ok=True)
+    try:
+        parts.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise Error(f"cannot write next to {output}: {exc.strerror}") from None
+    if not os.access(parts, os.W_OK):
+        raise Error(f"cannot write next to {output}: {parts} is not writable")
     specs = training_specs(lengths)
     done: dict[StepSpec, Motion] = {}
     for spec in specs:
@@ -229,6 +234,7 @@ def generate(
     attrs = {
         "content": "dataset",
         "robot": robot.name,
+        "robot_inertia_symmetrisation_m": robot.inertia_asymmetry,
         "lengths_m": list(lengths),
         "ocps": [s.name for s in specs],
         "failed": failed,

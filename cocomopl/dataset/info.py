@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,7 @@ def dataset_info(path: str | Path) -> dict:
         try:
             n_signals = {int(f["motions"][n]["signals"]["values"].shape[1]) for n in names}
             durations = {n: float(f["motions"][n]["t"][-1]) for n in names}
-            stats = [__import__("json").loads(f["motions"][n].attrs["meta"]) for n in names]
+            stats = [json.loads(f["motions"][n].attrs["meta"]) for n in names]
         except (KeyError, ValueError, OSError) as exc:
             raise Error(f"{path} is damaged: {exc}") from None
     signals = n_signals.pop() if len(n_signals) == 1 else None

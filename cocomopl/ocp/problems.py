@@ -8,7 +8,7 @@ support, single support, touchdown impulse -- that :func:`build_problem` turns i
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import crocoddyl
 import numpy as np
@@ -45,7 +45,6 @@ class StepPlan:
     phases: list[Phase]
     x0: np.ndarray
     x_target: np.ndarray | None = None
-    meta: dict = field(default_factory=dict)
 
 
 def foot_separation(robot: Robot) -> float:
@@ -132,7 +131,8 @@ def _swing_guide(phase: Phase, s: float, clearance: float) -> pin.SE3:
     blend = 0.5 - 0.5 * np.cos(np.pi * s)
     start, end = np.asarray(phase.swing_from), np.asarray(phase.swing_to)
     xy = start + blend * (end - start)
-    z = (clearance + 0.02) * np.sin(np.pi * s) ** 2 * 1.6
+    apex = 1.6 * (clearance + 0.02)  # comfortably above the clearance constraint
+    z = apex * np.sin(np.pi * s) ** 2
     return pin.SE3(np.eye(3), np.array([xy[0], xy[1], z]))
 
 

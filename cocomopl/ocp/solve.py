@@ -24,7 +24,6 @@ from cocomopl.ocp.posture import double_support_posture
 from cocomopl.ocp.torque_rate import with_torque_rate
 from cocomopl.ocp.problems import (
     OTHER,
-    Phase,
     StepPlan,
     build_problem,
     foot_separation,
@@ -405,7 +404,6 @@ __all__ = [
     "solve_with_retries",
     "warm_up_walk",
     "walk_segment",
-    "mirror_state",
     "solve_plan",
     "solve_step",
     "step_plan",

@@ -156,7 +156,6 @@ class Robot:
         self.mass = float(pin.computeTotalMass(self.model))
         self.foot_frames = {side: self._frame_id(desc["feet"][side]) for side in ("left", "right")}
         self.pelvis_frame = self._frame_id(desc["pelvis"])
-        self.knee_joints = desc.get("knee_joints", {})
         self.sole = Sole(**desc["sole"])
         # longest step (m) the description vouches for; beyond it the stance may still be
         # kinematically possible but walking is not (legs nearly straight)
@@ -266,10 +265,6 @@ class Robot:
         return change
 
     # ------------------------------------------------------------------ conveniences
-    def actuated(self, q: np.ndarray) -> np.ndarray:
-        """Actuated joint angles ``q[..., 7:]``."""
-        return q[..., 7:]
-
     def leg_joint_indices(self) -> list[int]:
         """Actuated-joint indices of the chains from the pelvis to the soles."""
         out = set()
