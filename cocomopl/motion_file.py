@@ -32,6 +32,18 @@ FORMAT_VERSION = 1
 _ARRAYS = ("t", "q", "v", "tau", "wrenches", "contact", "zmp", "impacts", "step_starts")
 
 
+def writable_folder(folder: Path, purpose: str) -> Path:
+    """Create ``folder`` if needed and make sure it can be written, or raise :class:`Error`
+    naming ``purpose`` (e.g. "output folder plots")."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise Error(f"cannot create {purpose}: {exc.strerror}") from None
+    if not os.access(folder, os.W_OK):
+        raise Error(f"cannot write to {purpose}: permission denied")
+    return folder
+
+
 @contextmanager
 def atomic_path(path: Path):
     """Yield a temporary path beside ``path`` that replaces it only if the block succeeds."""

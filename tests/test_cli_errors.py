@@ -76,7 +76,7 @@ def test_bad_numeric_options(tmp_path, option):
 
 def test_unwritable_output():
     result = run_cli("dataset", "generate", "--lengths-mm", "200", "--out", "/proc/cocomopl/d.h5")
-    assert_one_line_error(result, "cannot write next to /proc/cocomopl/d.h5")
+    assert_one_line_error(result, "cannot create the working folder /proc/cocomopl/d.h5.parts")
 
 
 def test_unreachable_scheduler(tmp_path):

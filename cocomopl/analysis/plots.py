@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from cocomopl.dynamics import SIDES, sole_placements
-from cocomopl.errors import Error
 from cocomopl.motion import Motion
+from cocomopl.motion_file import writable_folder
 from cocomopl.robot import Robot
 
 
@@ -115,13 +115,7 @@ def plot_contact_forces(robot: Robot, motion: Motion, path: Path) -> Path:
 
 def plot_motion(robot: Robot, motion: Motion, out_dir: Path) -> list[Path]:
     """Write the four PNGs of a motion into ``out_dir`` and return their paths."""
-    out_dir = Path(out_dir)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise Error(f"cannot create output folder {out_dir}: {exc.strerror}") from None
-    if not os.access(out_dir, os.W_OK):
-        raise Error(f"output folder {out_dir} is not writable")
+    out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")
     return [
         plot_joint_angles(robot, motion, out_dir / "joint_angles.png"),
         plot_zmp(robot, motion, out_dir / "zmp.png"),

@@ -24,7 +24,7 @@ from cocomopl.dataset.plan import successors, training_specs
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.motion_file import read_motion, write_motions
+from cocomopl.motion_file import read_motion, writable_folder, write_motions
 from cocomopl.ocp.models import OCPSettings
 from cocomopl.ocp.solve import solve_length, solve_with_retries, to_motion
 from cocomopl.robot import Robot, mirror_motion
@@ -164,12 +164,7 @@ def generate(
     robot = Robot(robot_name)  # fail fast on a bad robot before any process starts
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
-    try:
-        parts.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise Error(f"cannot write next to {output}: {exc.strerror}") from None
-    if not os.access(parts, os.W_OK):
-        raise Error(f"cannot write next to {output}: {parts} is not writable")
+    writable_folder(parts, f"the working folder {parts} of {output}")
     specs = training_specs(lengths)
     done: dict[StepSpec, Motion] = {}
     for spec in specs:
