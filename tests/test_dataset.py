@@ -93,3 +93,16 @@ def test_dask_cluster_path(tmp_path):
     motions, attrs = read_motions(out)
     assert len(motions) == 6
     assert attrs["scheduler"] == cluster.scheduler_address
+
+
+def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
+    """The dataset that ships in the package: made by the project's command, all 46 motions,
+    every check passing."""
+    assert main(["dataset", "info", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert (info["motions"], info["signals"], info["trajectories"]) == (46, 36, 1656)
+    assert info["all_converged"] is True
+    assert info["command"].startswith("cocomopl dataset generate")
+    assert info["versions"]["crocoddyl"] == "3.2.1" and info["created"]
+    assert main(["dataset", "check", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["ok"] is True
