@@ -103,3 +103,10 @@ def test_missing_urdf_is_a_clear_error(tmp_path):
     path.write_text('{"name": "x", "urdf": "missing.urdf", "feet": {}, "sole": {}, "pelvis": "b"}')
     with pytest.raises(Error, match="URDF not found"):
         Robot(str(path))
+
+
+def test_unreadable_description_is_a_clear_error(tmp_path):
+    path = tmp_path / "broken.json"
+    path.write_text("{not json")
+    with pytest.raises(Error, match="cannot read robot description"):
+        Robot(str(path))
