@@ -24,6 +24,7 @@ import cocomopl  # noqa: F401  (one OpenMP thread per process)
 def main() -> int:
     from cocomopl.analysis.plots import pyplot, save_figure
     from cocomopl.cli import BUNDLED_DATASET
+    from cocomopl.dataset.generate import phase_durations
     from cocomopl.motion import StepSpec
     from cocomopl.motion_file import read_motion
     from cocomopl.ocp.models import OCPSettings
@@ -39,8 +40,7 @@ def main() -> int:
     robot = Robot("talos")
     length = args.length_mm / 1000
     cyclic = read_motion(BUNDLED_DATASET, f"cyclic_{args.length_mm}_L")
-    (_, a, b), (_, c, d) = cyclic.phases[:2]
-    base = replace(OCPSettings(), ds_duration=cyclic.t[b] - cyclic.t[a], ss_duration=cyclic.t[d] - cyclic.t[c])
+    base = replace(OCPSettings(), **phase_durations(cyclic))
     x0 = np.concatenate([cyclic.q[0], cyclic.v[0]])
     warm = list(np.hstack([cyclic.q, cyclic.v]))
     results, motions = [], {}

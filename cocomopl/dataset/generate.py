@@ -26,7 +26,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.motion_file import read_motion, writable_folder, write_motions
 from cocomopl.ocp.models import OCPSettings
-from cocomopl.ocp.solve import solve_length, solve_with_retries, to_motion
+from cocomopl.ocp.solve import length_steps, solve_length, solve_with_retries, to_motion
 from cocomopl.robot import Robot, mirror_motion
 
 @dataclass
@@ -51,8 +51,7 @@ def length_job(
     solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state)
     result = JobResult()
     for kind, solution in solutions.items():
-        spec = {"cyclic": StepSpec("cyclic", length, length), "start": StepSpec("start", 0.0, length),
-                "stop": StepSpec("stop", length, 0.0)}[kind]
+        spec = length_steps(length)[kind]
         if solution is None:
             result.failed[spec.name] = info["attempts"].get(kind, [])
         else:

@@ -224,6 +224,15 @@ def solve_with_retries(
     return None, attempts
 
 
+def length_steps(length: float) -> dict[str, StepSpec]:
+    """The right-support cyclic, start and stop steps of one length, by kind."""
+    return {
+        "cyclic": StepSpec("cyclic", length, length),
+        "start": StepSpec("start", 0.0, length),
+        "stop": StepSpec("stop", length, 0.0),
+    }
+
+
 def solve_length(
     robot: Robot,
     length: float,
@@ -243,11 +252,7 @@ def solve_length(
     Returns ``({kind: solution or None}, info)`` with ``info`` holding ``start_state``,
     ``durations`` (double, single support; s), ``duration_search`` and ``attempts``.
     """
-    spec_of = {
-        "cyclic": StepSpec("cyclic", length, length),
-        "start": StepSpec("start", 0.0, length),
-        "stop": StepSpec("stop", length, 0.0),
-    }
+    spec_of = length_steps(length)
     solutions, attempts, search = {}, {}, []
     if cyclic_start is None:
         tried: dict[float, tuple | None] = {}
@@ -258,8 +263,9 @@ def solve_length(
             if ss not in tried:
                 opts = replace(settings, ss_duration=ss)
                 walk = warm_up_walk(robot, length, opts)
-                x0 = walk_segment(robot, walk, "cyclic")[0]
-                guesses = [walk_segment(robot, walk, "cyclic"), "kinematic", "static"]
+                segment = walk_segment(robot, walk, "cyclic")
+                x0 = segment[0]
+                guesses = [segment, "kinematic", "static"]
                 solution, record = solve_with_retries(robot, spec_of["cyclic"], {length: x0}, opts, guesses)
                 attempts.setdefault("cyclic", []).extend(record)
                 search.append({"ss_duration": ss, "cost": None if solution is None else solution.stats["cost"]})
@@ -400,6 +406,7 @@ def target_error(robot: Robot, solution: Solution) -> float:
 __all__ = [
     "Solution",
     "target_error",
+    "length_steps",
     "solve_length",
     "solve_with_retries",
     "warm_up_walk",
