@@ -1,0 +1,127 @@
+"""The variational free energy of the movement-primitive model (eq. 6), in JAX.
+
+Model (eq. 2): ``X[k, i, t] = sum_s W[i, s](l_k) MP[s](t) + eta``, ``eta ~ N(0, sigma_i^2)``.
+Priors: ``MP_s ~ GP(mu_s, A_s)`` with a time kernel (eq. 3) and ``mu_s`` from a PCA;
+``W_is(.) ~ GP(chi_is[type], B_is)`` with eq. (5)'s kernel.
+
+Posterior ``Q = prod_s Q(MP_s) prod_is Q(W_is)``, each Gaussian.  Given the other
+factors, the optimal covariances are the prior precision plus a multiple of the identity
+(the noise is i.i.d. over time and over steps), so they are parametrised exactly so:
+``Sigma_s = (A_s^-1 + d_s I)^-1`` and ``Omega_is = (B_is^-1 + c_is I)^-1``.  Means are
+whitened, ``m_s = mu_s + chol(A_s) u_s`` and ``w_is = chi_is + chol(B_is) v_is``, which
+keeps L-BFGS well conditioned while the kernels change.
+
+Steps are laid out in slots ``(G types, N slots)``; eq. (5)'s Kronecker delta makes the
+weight covariance block-diagonal by type, so each type's block is handled on its own and
+empty slots are masked out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cocomopl.primitives.kernels import time_kernel, weight_kernel
+
+jax.config.update("jax_enable_x64", True)
+
+JITTER = 1e-6  # relative nugget keeping the prior covariances positive definite
+
+
+@dataclass(frozen=True)
+class BoundData:
+    """The training data in slot layout.
+
+    Attributes
+    ----------
+    X : (G, N, I, T) signals (zeros in empty slots)
+    mask : (G, N) 1 for a step, 0 for an empty slot
+    d2 : (G, N, N) squared distances of the (start, end) lengths within a type, m^2
+    r : (T, T) distances between the normalised-time grid points
+    mu : (S, T) prior mean functions of the MPs (PCA components)
+    """
+
+    X: np.ndarray
+    mask: np.ndarray
+    d2: np.ndarray
+    r: np.ndarray
+    mu: np.ndarray
+
+
+def _chol_solve_identity(L):
+    """``P^-1`` from the Cholesky factor of ``P`` (batched)."""
+    eye = jnp.broadcast_to(jnp.eye(L.shape[-1]), L.shape)
+    return jax.scipy.linalg.cho_solve((L, True), eye)
+
+
+def mp_prior(params: dict, data: BoundData, kernel: str):
+    """Prior covariances ``A`` (S, T, T) of the MPs."""
+    alpha = jnp.exp(params["log_alpha_t"])[:, None, None]
+    ell = jnp.exp(params["log_ell_t"])[:, None, None]
+    T = data.r.shape[0]
+    return time_kernel(kernel, data.r[None], alpha, ell) + JITTER * alpha * jnp.eye(T)
+
+
+def weight_prior(params: dict, data: BoundData):
+    """Prior covariances ``B`` (I, S, G, N, N) of the weights; empty slots get an identity row."""
+    alpha = jnp.exp(params["log_alpha_w"])[:, :, None, None, None]
+    gamma = jnp.exp(params["log_gamma_w"])[:, :, None, None, None]
+    m = jnp.asarray(data.mask)
+    both = m[:, :, None] * m[:, None, :]
+    eye = jnp.eye(data.mask.shape[1])
+    K = weight_kernel(data.d2, alpha, gamma) * both
+    return K + JITTER * alpha * eye * m[:, :, None] + eye * (1.0 - m[:, :, None])
+
+
+def posterior(params: dict, data: BoundData, kernel: str) -> dict:
+    """Means and covariance summaries of Q, and the two KL divergences."""
+    A = mp_prior(params, data, kernel)
+    S, T = data.mu.shape
+    m = data.mu + jnp.einsum("stu,su->st", jnp.linalg.cholesky(A), params["u"])
+    d = jnp.exp(params["log_d"])[:, None, None]
+    L_PA = jnp.linalg.cholesky(jnp.eye(T) + d * A)
+    PA_inv = _chol_solve_identity(L_PA)
+    tr_sigma = jnp.sum(A * PA_inv, axis=(1, 2))  # tr(A (I + dA)^-1) = tr(Sigma)
+    kl_mp = 0.5 * jnp.sum(
+        jnp.trace(PA_inv, axis1=1, axis2=2)
+        + jnp.sum(params["u"] ** 2, axis=1)
+        - T
+        + 2.0 * jnp.sum(jnp.log(jnp.diagonal(L_PA, axis1=1, axis2=2)), axis=1)
+    )
+
+    B = weight_prior(params, data)
+    mask = jnp.asarray(data.mask)
+    v = params["v"]
+    w = params["chi"][..., None] + jnp.einsum("isgnj,isgj->isgn", jnp.linalg.cholesky(B), v)
+    c = jnp.exp(params["log_c"])[:, :, None, None, None]
+    L_PB = jnp.linalg.cholesky(jnp.eye(B.shape[-1]) + c * B)
+    PB_inv = _chol_solve_identity(L_PB)
+    omega = jnp.einsum("isgnj,isgjn->isgn", B, PB_inv)  # diag(Omega) = diag(B (I + cB)^-1)
+    kl_w = 0.5 * jnp.sum(
+        mask
+        * (
+            jnp.diagonal(PB_inv, axis1=-2, axis2=-1)
+            + v**2
+            - 1.0
+            + 2.0 * jnp.log(jnp.diagonal(L_PB, axis1=-2, axis2=-1))
+        )
+    )
+    return {"m": m, "tr_sigma": tr_sigma, "w": w, "omega": omega, "kl_mp": kl_mp, "kl_w": kl_w}
+
+
+def free_energy(params: dict, data: BoundData, kernel: str):
+    """The bound L of eq. (6): expected log-likelihood minus KL(Q || prior)."""
+    q = posterior(params, data, kernel)
+    m, w, omega = q["m"], q["w"], q["omega"]
+    mask = jnp.asarray(data.mask)
+    T = data.r.shape[0]
+    sigma2 = jnp.exp(2.0 * params["log_sigma"])  # (I,)
+    residual = data.X - jnp.einsum("isgn,st->gnit", w, m)
+    m2 = jnp.sum(m**2, axis=1)  # (S,)
+    spread = jnp.einsum("isgn,s->gni", (w**2 + omega), m2 + q["tr_sigma"]) - jnp.einsum("isgn,s->gni", w**2, m2)
+    sq = jnp.sum(residual**2, axis=-1) + spread  # (G, N, I)
+    ell = -0.5 * jnp.sum(mask[:, :, None] * (T * jnp.log(2.0 * jnp.pi * sigma2) + sq / sigma2))
+    return ell - q["kl_mp"] - q["kl_w"]

@@ -1,0 +1,314 @@
+"""The movement-primitive model of the paper (sec. III-C) as a scikit-learn style estimator.
+
+>>> model = MovementPrimitives(n_primitives=11, kernel="rbf").fit(load_training_steps(path))
+>>> step = model.predict(StepSpec("cyclic", 0.39, 0.39, "left"))
+>>> step.values            # (T, 36) signals on the step's normalised time grid
+>>> model.score(steps)     # explained variance of the signals, 1 is perfect
+
+Fitting maximises the free energy of :mod:`cocomopl.primitives.bound` with L-BFGS-B and
+JAX gradients.  Prediction is NumPy only: a fitted model keeps, per step type, the few
+arrays the weight GPs need, so that a step costs a handful of small matrix products.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.primitives import durations as duration_gp
+from cocomopl.primitives.training import (
+    TrainingSteps,
+    phase_templates,
+    resample,
+    step_lengths,
+    step_type,
+)
+
+SIGNAL_GROUPS = ("joints", "zmp", "pelvis")
+CONDITION_RATIO = 1e-6  # start-state noise relative to the predicted start variance: "nearly equal"
+VARIANCE_FLOOR = 1e-6  # relative to the prior: keeps conditioning defined at training points
+
+
+def signal_groups(names: list[str]) -> dict[str, np.ndarray]:
+    """Indices of the joint, ZMP and pelvis-orientation signals."""
+    group = ["zmp" if n.startswith("zmp_") else "pelvis" if n.startswith("pelvis_") else "joints" for n in names]
+    return {g: np.flatnonzero([x == g for x in group]) for g in SIGNAL_GROUPS}
+
+
+def explained_variance(X: np.ndarray, X_hat: np.ndarray, names: list[str]) -> dict[str, float]:
+    """Per signal group, ``1 - SSE / total variance`` of (K, I, T) signals about each signal's mean."""
+    centred = X - X.mean(axis=(0, 2), keepdims=True)
+    return {
+        g: float(1.0 - ((X - X_hat)[:, idx] ** 2).sum() / (centred[:, idx] ** 2).sum())
+        for g, idx in signal_groups(names).items()
+    }
+
+
+class PredictedStep:
+    """A step predicted by the model: signals on the template grid, durations and uncertainty.
+
+    Attributes
+    ----------
+    spec : StepSpec
+    tau : (T,) normalised time grid; ``boundaries`` (P+1,) its phase boundaries
+    values, std : (T, I) posterior mean and standard deviation of the signals
+    durations, duration_std : (P,) phase durations and their standard deviation, s
+    distance : distance of (start, end) lengths to the nearest training step of the type, m
+    in_support : whether that distance is within the training grid's spacing
+    """
+
+    def __init__(self, spec, tau, values, std, boundaries, durations, duration_std, distance, in_support):
+        self.spec = spec
+        self.tau = tau
+        self.values = values
+        self.std = std
+        self.boundaries = boundaries
+        self.durations = durations
+        self.duration_std = duration_std
+        self.distance = distance
+        self.in_support = in_support
+
+    @property
+    def times(self) -> np.ndarray:
+        """Real time (s) of each grid point, from the step's start."""
+        return np.interp(self.tau, self.boundaries, np.concatenate([[0.0], np.cumsum(self.durations)]))
+
+    @property
+    def duration(self) -> float:
+        return float(self.durations.sum())
+
+
+class MovementPrimitives:
+    """Temporal movement primitives with GP priors, weights GP functions of the step parameters.
+
+    Parameters
+    ----------
+    n_primitives : int
+        S, the number of primitives.
+    kernel : {"rbf", "matern32", "matern52"}
+        Time kernel of the primitives' GP priors.
+    n_grid : int
+        Points of the normalised time grid per step.
+    max_iterations : int
+        L-BFGS-B iterations.
+    """
+
+    def __init__(self, n_primitives: int = 11, kernel: str = "rbf", n_grid: int = 100, max_iterations: int = 3000):
+        self.n_primitives = n_primitives
+        self.kernel = kernel
+        self.n_grid = n_grid
+        self.max_iterations = max_iterations
+
+    # ------------------------------------------------------------------ fit
+    def fit(self, steps: TrainingSteps) -> "MovementPrimitives":
+        """Learn primitives, weight GPs and duration GPs from training steps."""
+        from cocomopl.primitives import optimise  # JAX is needed to fit only
+
+        self._validate(steps)
+        started = time.perf_counter()
+        templates = phase_templates(steps)
+        tau = np.linspace(0.0, 1.0, self.n_grid)
+        X = resample(steps, templates, tau)
+        layout = _SlotLayout(steps)
+        result = optimise.maximise_bound(
+            layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations
+        )
+        self.state_ = {
+            "tau": tau,
+            "signal_names": np.array(steps.signal_names),
+            "unconditioned": np.array([name.startswith("zmp_") for name in steps.signal_names]),
+            "types": np.array(layout.types),
+            "lengths": layout.lengths,
+            "mask": layout.mask,
+            "boundaries": _pad_boundaries([templates[t] for t in layout.types]),
+            **result["arrays"],
+            **_fit_durations(steps, layout),
+        }
+        self.bound_ = result["bound"]
+        self.n_iter_ = result["iterations"]
+        self.fit_time_s_ = time.perf_counter() - started
+        self.explained_variance_ = explained_variance(X, layout.from_slots(result["reconstruction"]), steps.signal_names)
+        return self
+
+    def _validate(self, steps: TrainingSteps) -> None:
+        if not isinstance(self.n_primitives, (int, np.integer)) or self.n_primitives < 1:
+            raise Error(f"the number of primitives must be a positive whole number, not {self.n_primitives!r}")
+        from cocomopl.primitives.kernels import TIME_KERNELS
+
+        if self.kernel not in TIME_KERNELS:
+            raise Error(f"unknown kernel {self.kernel!r}; choose one of {', '.join(TIME_KERNELS)}")
+        if self.n_primitives > self.n_grid:
+            raise Error(f"{self.n_primitives} primitives cannot exceed the {self.n_grid} time-grid points")
+        if len(steps) < 2:
+            raise Error("training needs at least two steps")
+
+    # ------------------------------------------------------------------ predict
+    @property
+    def types(self) -> list[str]:
+        return [str(t) for t in self.state_["types"]]
+
+    @property
+    def signal_names(self) -> list[str]:
+        return [str(n) for n in self.state_["signal_names"]]
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "state_"):
+            raise Error("this model is not fitted yet: call fit() or load a model file")
+
+    def predict(self, spec: StepSpec, start: np.ndarray | None = None) -> PredictedStep:
+        """Posterior mean and uncertainty of a step.
+
+        Parameters
+        ----------
+        spec : StepSpec
+        start : (I,) optional
+            The previous step's final signals.  The step's initial joint angles and pelvis
+            orientation are conditioned to (nearly) equal them.  The ZMP is not: it jumps
+            at touchdown, in the OC data too.
+        """
+        self._check_fitted()
+        s = self.state_
+        try:
+            g = self.types.index(step_type(spec))
+        except ValueError:
+            raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot") from None
+        z = step_lengths(spec)
+        mask = s["mask"][g]
+        d2 = ((s["lengths"][g] - z) ** 2).sum(axis=1)
+        b = s["alpha_w"][:, :, None] * np.exp(-s["gamma_w"][:, :, None] * d2) * mask  # (I, S, N)
+        w = s["chi"][:, :, g] + np.einsum("isn,isn->is", b, s["beta"][:, :, g])
+        var = s["alpha_w"] - np.einsum("isn,isn->is", b, (s["C"][:, :, g] @ b[..., None])[..., 0])
+        var = np.maximum(var, 0.0) + VARIANCE_FLOOR * s["alpha_w"]
+        if start is not None:
+            w, var = self._condition(w, var, np.asarray(start, dtype=float))
+        m, m_var = s["m"], s["m_var"]
+        values = (w @ m).T
+        std = np.sqrt(var @ (m**2 + m_var) + w**2 @ m_var).T
+        durations, duration_std = self._durations(g, z)
+        distance = float(np.sqrt(d2[mask > 0].min()))
+        return PredictedStep(
+            spec,
+            s["tau"],
+            values,
+            std,
+            s["boundaries"][g, : len(durations) + 1],
+            durations,
+            duration_std,
+            distance,
+            distance <= s["support_radius"][g] + 1e-9,
+        )
+
+    def _condition(self, w: np.ndarray, var: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gaussian conditioning of each signal's weights on its value at the step's start."""
+        h = self.state_["m"][:, 0]
+        Ph = var * h
+        predicted_var = Ph @ h
+        gain = Ph / (predicted_var * (1.0 + CONDITION_RATIO))[:, None]
+        gain[self.state_["unconditioned"]] = 0.0
+        w = w + gain * (start - w @ h)[:, None]
+        return w, var - gain * Ph
+
+    def _durations(self, g: int, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = self.state_
+        P = int(s["n_phases"][g])
+        d2 = ((s["lengths"][g] - z) ** 2).sum(axis=1)
+        k = s["dur_alpha"][g, :P, None] * np.exp(-s["dur_gamma"][g, :P, None] * d2) * s["mask"][g]  # (P, N)
+        log_mean = s["dur_mean"][g, :P] + np.einsum("pn,pn->p", k, s["dur_beta"][g, :P])
+        log_var = s["dur_alpha"][g, :P] - np.einsum("pn,pn->p", k, (s["dur_K_inv"][g, :P] @ k[..., None])[..., 0])
+        mean = np.exp(log_mean)
+        return mean, mean * np.sqrt(np.maximum(log_var, 0.0))
+
+    # ------------------------------------------------------------------ score
+    def reconstruct(self, steps: TrainingSteps) -> tuple[np.ndarray, np.ndarray]:
+        """Signals of ``steps`` on the grid (K, I, T) and the model's predictions of them."""
+        self._check_fitted()
+        if list(steps.signal_names) != self.signal_names:
+            raise Error("these steps have different signals from the model's")
+        templates = dict(zip(self.types, self.state_["boundaries"]))
+        templates = {t: b[~np.isnan(b)] for t, b in templates.items()}
+        missing = {step_type(s) for s in steps.specs} - set(templates)
+        if missing:
+            raise Error(f"the model has no steps of type {', '.join(sorted(missing))}")
+        X = resample(steps, templates, self.state_["tau"])
+        X_hat = np.stack([self.predict(spec).values.T for spec in steps.specs])
+        return X, X_hat
+
+    def score(self, steps: TrainingSteps) -> float:
+        """Explained variance of all signals of ``steps`` (1 is perfect)."""
+        X, X_hat = self.reconstruct(steps)
+        centred = X - X.mean(axis=(0, 2), keepdims=True)
+        return float(1.0 - ((X - X_hat) ** 2).sum() / (centred**2).sum())
+
+
+class _SlotLayout:
+    """Steps arranged by type: ``slots[g]`` lists the step indices of type ``types[g]``."""
+
+    def __init__(self, steps: TrainingSteps):
+        self.types = sorted({step_type(s) for s in steps.specs})
+        self.slots = [[k for k, s in enumerate(steps.specs) if step_type(s) == t] for t in self.types]
+        G, N = len(self.types), max(len(s) for s in self.slots)
+        self.mask = np.zeros((G, N))
+        self.lengths = np.zeros((G, N, 2))
+        for g, ks in enumerate(self.slots):
+            self.mask[g, : len(ks)] = 1.0
+            self.lengths[g, : len(ks)] = [step_lengths(steps.specs[k]) for k in ks]
+        self.d2 = ((self.lengths[:, :, None] - self.lengths[:, None, :]) ** 2).sum(-1)
+        self.n_steps = len(steps)
+
+    def to_slots(self, X: np.ndarray) -> np.ndarray:
+        out = np.zeros((*self.mask.shape, *X.shape[1:]))
+        for g, ks in enumerate(self.slots):
+            out[g, : len(ks)] = X[ks]
+        return out
+
+    def from_slots(self, X_slots: np.ndarray) -> np.ndarray:
+        out = np.empty((self.n_steps, *X_slots.shape[2:]))
+        for g, ks in enumerate(self.slots):
+            out[ks] = X_slots[g, : len(ks)]
+        return out
+
+    def support_radius(self) -> np.ndarray:
+        """Per type, the largest distance from a training step to its nearest neighbour (m)."""
+        out = np.empty(len(self.types))
+        for g, ks in enumerate(self.slots):
+            n = len(ks)
+            d = np.sqrt(self.d2[g, :n, :n]) + np.diag(np.full(n, np.inf))
+            out[g] = d.min(axis=1).max() if n > 1 else 0.0
+        return out
+
+
+def _pad_boundaries(boundaries: list[np.ndarray]) -> np.ndarray:
+    out = np.full((len(boundaries), max(len(b) for b in boundaries)), np.nan)
+    for g, b in enumerate(boundaries):
+        out[g, : len(b)] = b
+    return out
+
+
+def _fit_durations(steps: TrainingSteps, layout: _SlotLayout) -> dict:
+    """GP regressions of the log phase durations per type, in slot layout."""
+    G, N = layout.mask.shape
+    P = max(len(d) for d in steps.durations)
+    out = {
+        "n_phases": np.zeros(G, dtype=int),
+        "dur_mean": np.zeros((G, P)),
+        "dur_alpha": np.zeros((G, P)),
+        "dur_gamma": np.ones((G, P)),
+        "dur_beta": np.zeros((G, P, N)),
+        "dur_K_inv": np.zeros((G, P, N, N)),
+        "support_radius": layout.support_radius(),
+    }
+    for g, ks in enumerate(layout.slots):
+        n = len(ks)
+        y = np.log(np.array([steps.durations[k] for k in ks]))  # (n, P_g)
+        out["n_phases"][g] = y.shape[1]
+        for p in range(y.shape[1]):
+            gp = duration_gp.fit_gp(layout.lengths[g, :n], y[:, p])
+            out["dur_mean"][g, p] = gp["mean"]
+            out["dur_alpha"][g, p] = gp["alpha"]
+            out["dur_gamma"][g, p] = gp["gamma"]
+            out["dur_beta"][g, p, :n] = gp["beta"]
+            out["dur_K_inv"][g, p, :n, :n] = gp["K_inv"]
+    return out

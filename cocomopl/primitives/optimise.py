@@ -1,0 +1,122 @@
+"""Maximise the free energy (eq. 6) with L-BFGS-B, starting from a PCA of the data."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.flatten_util import ravel_pytree
+from scipy.optimize import minimize
+
+from cocomopl.primitives.bound import BoundData, free_energy, mp_prior, posterior, weight_prior
+
+# (lower, upper) for the log-parameters; the rest are unbounded.  They keep the kernels
+# numerically sane: time length scales between a grid step and 10 steps, weight-kernel
+# widths between 7 mm and 0.7 m of step length.
+LOG_BOUNDS = {
+    "log_alpha_t": (np.log(1e-8), np.log(1e2)),
+    "log_alpha_w": (np.log(1e-12), np.log(1e2)),
+    "log_gamma_w": (np.log(1.0), np.log(1e4)),
+    "log_sigma": (np.log(1e-6), np.log(1.0)),
+    "log_d": (-30.0, 40.0),
+    "log_c": (-30.0, 40.0),
+}
+
+
+def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, mu: np.ndarray) -> BoundData:
+    return BoundData(X_slots, mask, d2, np.abs(tau[:, None] - tau[None, :]), mu)
+
+
+def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, S: int):
+    """PCA start: MP means are the leading right singular vectors of the (steps x signals, time) data."""
+    G, N, I, T = X_slots.shape
+    real = X_slots[mask > 0]  # (K, I, T)
+    _, _, Vt = np.linalg.svd(real.reshape(-1, T), full_matrices=False)
+    mu = Vt[:S] * np.sqrt(T)  # unit RMS primitives
+    w = np.einsum("gnit,st->isgn", X_slots, mu) / T  # PCA weights
+    residual = real - np.einsum("isk,st->kit", w.transpose(0, 1, 2, 3)[:, :, mask > 0], mu)
+    sigma = np.maximum(np.sqrt((residual**2).mean(axis=(0, 2))), 1e-5)
+    counts = mask.sum(axis=1)
+    chi = (w * mask).sum(axis=-1) / counts
+    spread = ((w - chi[..., None]) ** 2 * mask).sum(axis=(-1, -2)) / mask.sum()
+    params = {
+        "u": np.zeros((S, T)),
+        "log_d": np.log(np.einsum("isgn,i->s", w**2 * mask, 1 / sigma**2) + 1.0),
+        "log_c": np.log(np.full((I, S), T) / sigma[:, None] ** 2),
+        "log_alpha_t": np.full(S, np.log(1e-2)),
+        "log_ell_t": np.full(S, np.log(0.1)),
+        "log_alpha_w": np.log(np.maximum(spread, 1e-10)),
+        "log_gamma_w": np.full((I, S), np.log(50.0)),
+        "chi": chi,
+        "log_sigma": np.log(sigma),
+    }
+    data = bound_data(X_slots, mask, d2, tau, mu)
+    L_B = np.linalg.cholesky(np.asarray(weight_prior(params, data)))
+    params["v"] = np.linalg.solve(L_B, ((w - chi[..., None]) * mask)[..., None])[..., 0] * mask
+    return params, data
+
+
+def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: int) -> dict:
+    """Fit Q and the kernel hyperparameters; return the arrays prediction needs."""
+    params, data = initial_parameters(X_slots, mask, d2, tau, S)
+    params["log_ell_t"] = np.full(S, np.log(0.1))
+    flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
+    bounds = _bounds(params, tau)
+    scale = float(mask.sum() * X_slots.shape[2] * X_slots.shape[3])  # per datum, for L-BFGS tolerances
+
+    @jax.jit
+    def objective(x):
+        value, grad = jax.value_and_grad(lambda y: -free_energy(unravel(y), data, kernel) / scale)(x)
+        return value, grad
+
+    def fun(x):
+        value, grad = objective(jnp.asarray(x))
+        return float(value), np.asarray(grad, dtype=float)
+
+    result = minimize(
+        fun, np.asarray(flat), jac=True, method="L-BFGS-B", bounds=bounds,
+        options={"maxiter": max_iterations, "maxcor": 30, "ftol": 1e-12, "gtol": 1e-8},
+    )
+    best = {k: np.asarray(v) for k, v in unravel(jnp.asarray(result.x)).items()}
+    return {
+        "arrays": _prediction_arrays(best, data, kernel),
+        "bound": float(-result.fun * scale),
+        "iterations": int(result.nit),
+        "reconstruction": np.einsum("isgn,st->gnit", np.asarray(posterior(best, data, kernel)["w"]),
+                                    np.asarray(posterior(best, data, kernel)["m"])),
+    }
+
+
+def _bounds(params: dict, tau: np.ndarray) -> list:
+    grid = float(tau[1] - tau[0])
+    limits = dict(LOG_BOUNDS, log_ell_t=(np.log(grid), np.log(10.0)))
+    out = []
+    for key in sorted(params):  # ravel_pytree flattens dict leaves in sorted key order
+        out += [limits.get(key, (None, None))] * np.asarray(params[key]).size
+    return out
+
+
+def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
+    """What prediction needs: MP posterior, weight-GP hyperparameters and solves, noise."""
+    q = {k: np.asarray(v) for k, v in posterior(params, data, kernel).items()}
+    A = np.asarray(mp_prior(params, data, kernel))
+    d = np.exp(params["log_d"])[:, None, None]
+    m_var = np.diagonal(A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A), axis1=1, axis2=2)
+    B = np.asarray(weight_prior(params, data))
+    L_B = np.linalg.cholesky(B)
+    beta = np.linalg.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None])[..., 0] * data.mask
+    c = np.exp(params["log_c"])[:, :, None, None, None]
+    C = np.linalg.inv(B + np.eye(B.shape[-1]) / c)
+    both = data.mask[:, :, None] * data.mask[:, None, :]
+    return {
+        "m": q["m"],
+        "m_var": m_var,
+        "alpha_w": np.exp(params["log_alpha_w"]),
+        "gamma_w": np.exp(params["log_gamma_w"]),
+        "chi": params["chi"],
+        "beta": beta,
+        "C": C * both,
+        "sigma": np.exp(params["log_sigma"]),
+        "alpha_t": np.exp(params["log_alpha_t"]),
+        "ell_t": np.exp(params["log_ell_t"]),
+    }

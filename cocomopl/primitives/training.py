@@ -1,0 +1,140 @@
+"""The training set of the primitives: every step's 36 signals on one per-phase normalised time grid.
+
+Steps differ in duration and in how that duration splits into phases.  Each step *type*
+(kind and swinging foot, e.g. ``cyclic`` swinging ``left``) gets a phase template: the
+mean fraction of the step each phase takes.  A step is warped piecewise linearly so its
+phase boundaries land on its template's, then sampled on a uniform grid ``tau`` in [0, 1].
+Events (lift-off, touchdown) then sit at the same ``tau`` for all steps of a type, and the
+phase durations themselves become regression targets.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from cocomopl.errors import Error
+from cocomopl.motion import STEP_KINDS, StepSpec
+from cocomopl.motion_file import open_checked
+
+SIDES = ("left", "right")
+STEP_TYPES = tuple(f"{kind}_{side}" for kind in STEP_KINDS for side in SIDES)
+
+
+def step_type(spec: StepSpec) -> str:
+    """The discrete part of the step parameters: kind and swinging foot, e.g. ``cyclic_left``.
+
+    Mirror images share lengths but not trajectories, so the swinging foot belongs to the
+    type on which eq. (5)'s Kronecker delta acts.
+    """
+    return f"{spec.kind}_{spec.swing_side}"
+
+
+def step_lengths(spec: StepSpec) -> np.ndarray:
+    """The continuous part of the step parameters, (start length, end length) in m."""
+    return np.array([spec.start_length, spec.end_length])
+
+
+@dataclass
+class TrainingSteps:
+    """OC steps as the primitives learn them.
+
+    Attributes
+    ----------
+    specs : list of StepSpec, one per step
+    values : list of (n_k, I) arrays, the signals at the step's samples
+    phase_time : list of (n_k,) arrays, per-phase normalised time (0 .. number of phases)
+    durations : list of (P_k,) arrays, phase durations in s
+    signal_names : the I signal names
+    source : where the steps came from (path and dataset creation date)
+    """
+
+    specs: list
+    values: list
+    phase_time: list
+    durations: list
+    signal_names: list
+    source: dict
+
+    def __len__(self) -> int:
+        return len(self.specs)
+
+    def subset(self, keep) -> "TrainingSteps":
+        """The steps at indices ``keep``."""
+        keep = list(keep)
+        return TrainingSteps(
+            [self.specs[k] for k in keep],
+            [self.values[k] for k in keep],
+            [self.phase_time[k] for k in keep],
+            [self.durations[k] for k in keep],
+            self.signal_names,
+            self.source,
+        )
+
+
+def load_training_steps(path) -> TrainingSteps:
+    """Read the training signals of every motion of a cocomopl dataset file."""
+    specs, values, phase_time, durations = [], [], [], []
+    with open_checked(path) as f:
+        names = sorted(f["motions"])
+        if not names:
+            raise Error(f"{path} holds no motions to learn from")
+        try:
+            signal_names = None
+            for name in names:
+                group = f["motions"][name]
+                steps = json.loads(group.attrs["steps"])
+                if len(steps) != 1:
+                    raise Error(f"{path}: motion {name} has {len(steps)} steps; training needs single steps")
+                signals = group["signals"]
+                t = signals["t"][()]
+                pt = signals["phase_time"][()]
+                specs.append(StepSpec(**steps[0]))
+                values.append(signals["values"][()])
+                phase_time.append(pt)
+                durations.append(_phase_durations(t, pt))
+                names_k = [n.decode() if isinstance(n, bytes) else str(n) for n in signals["names"][()]]
+                if signal_names is None:
+                    signal_names = names_k
+                elif names_k != signal_names:
+                    raise Error(f"{path}: motion {name} has different signals from the others")
+        except KeyError as exc:
+            raise Error(f"{path} has no training signals ({exc}); regenerate it with 'cocomopl dataset generate'") from None
+        created = f.attrs.get("created", "")
+    return TrainingSteps(specs, values, phase_time, durations, signal_names, {"path": str(path), "created": str(created)})
+
+
+def _phase_durations(t: np.ndarray, phase_time: np.ndarray) -> np.ndarray:
+    """Duration of each phase from the times at which the phase counter passes each integer."""
+    n_phases = int(round(phase_time[-1]))
+    boundaries = np.interp(np.arange(n_phases + 1), phase_time, t)
+    return np.diff(boundaries)
+
+
+def phase_templates(steps: TrainingSteps) -> dict[str, np.ndarray]:
+    """Per step type, the mean fraction of the step at which each phase ends (boundaries in [0, 1])."""
+    out = {}
+    for type_ in sorted({step_type(s) for s in steps.specs}):
+        fractions = [d / d.sum() for s, d in zip(steps.specs, steps.durations) if step_type(s) == type_]
+        if len({len(f) for f in fractions}) != 1:
+            raise Error(f"steps of type {type_} do not all have the same phases")
+        out[type_] = np.concatenate([[0.0], np.cumsum(np.mean(fractions, axis=0))])
+        out[type_][-1] = 1.0
+    return out
+
+
+def to_template_time(phase_time: np.ndarray, boundaries: np.ndarray) -> np.ndarray:
+    """Map per-phase time (0 .. P) to template time in [0, 1] with the given phase boundaries."""
+    return np.interp(phase_time, np.arange(len(boundaries)), boundaries)
+
+
+def resample(steps: TrainingSteps, templates: dict[str, np.ndarray], tau: np.ndarray) -> np.ndarray:
+    """All steps' signals on the template grid ``tau``: (K, I, T)."""
+    out = np.empty((len(steps), len(steps.signal_names), len(tau)))
+    for k, (spec, values, pt) in enumerate(zip(steps.specs, steps.values, steps.phase_time)):
+        x = to_template_time(pt, templates[step_type(spec)])
+        for i in range(values.shape[1]):
+            out[k, i] = np.interp(tau, x, values[:, i])
+    return out
