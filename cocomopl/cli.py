@@ -8,9 +8,13 @@ import shlex
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from cocomopl.errors import Error
 
 BUNDLED_DATASET = Path(__file__).parent / "data" / "dataset.h5"
+BUNDLED_MODEL = Path(__file__).parent / "data" / "model.npz"
+M_GEN_MM = "150,150,250,350,390,350,250,150,150"  # the paper's generated sequence
 
 
 class _Parser(argparse.ArgumentParser):
@@ -62,9 +66,9 @@ def cmd_dataset_generate(args) -> int:
     from cocomopl.dataset.generate import generate
     from cocomopl.dataset.plan import parse_lengths_mm
     from cocomopl.ocp.models import OCPSettings
-    from cocomopl.robot import Robot
     from cocomopl.ocp.posture import double_support_posture
     from cocomopl.ocp.problems import foot_separation
+    from cocomopl.robot import Robot
 
     lengths = parse_lengths_mm(args.lengths_mm)
     robot = Robot(args.robot)
@@ -135,6 +139,160 @@ def cmd_dataset_check(args) -> int:
     return 0 if report["ok"] else 1
 
 
+def _model_path(path: str | None) -> Path:
+    if path is not None:
+        return Path(path)
+    if not BUNDLED_MODEL.exists():
+        raise Error(f"the bundled model is missing ({BUNDLED_MODEL}); train one with 'cocomopl train'")
+    return BUNDLED_MODEL
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        values = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of whole numbers") from None
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must list positive whole numbers")
+    return sorted(set(values))
+
+
+def _kernel_list(text: str) -> list[str]:
+    from cocomopl.primitives.kernels import TIME_KERNELS
+
+    values = [x.strip() for x in text.split(",") if x.strip()]
+    unknown = [x for x in values if x not in TIME_KERNELS]
+    if not values or unknown:
+        raise argparse.ArgumentTypeError(f"unknown kernel(s) {unknown or text!r}; choose from {','.join(TIME_KERNELS)}")
+    return values
+
+
+# ---------------------------------------------------------------------------- primitives
+def cmd_train(args) -> int:
+    import os
+    import time
+
+    from cocomopl.analysis.plots import plot_model_selection
+    from cocomopl.motion_file import writable_folder
+    from cocomopl.primitives.model_file import save_model
+    from cocomopl.primitives.selection import select_model
+    from cocomopl.primitives.training import load_training_steps
+
+    out = Path(args.out)
+    if out.is_dir():
+        raise Error(f"--out {out} is a directory; give a file path such as {out / 'model.npz'}")
+    writable_folder(out.parent if str(out.parent) else Path("."), "the model")
+    data = _dataset_path(args.data)
+    steps = load_training_steps(data)
+    started = time.perf_counter()
+    best, rows = select_model(
+        steps,
+        n_primitives=args.primitives,
+        kernels=args.kernels,
+        max_iterations=args.max_iterations,
+        workers=args.workers or os.cpu_count() or 1,
+        progress=True,
+    )
+    wall = time.perf_counter() - started
+    metadata = {
+        "command": "cocomopl " + " ".join(shlex.quote(a) for a in sys.argv[1:]),
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "versions": _versions(),
+        "robot": steps.source["robot"] or "talos",
+        "dataset": {**steps.source, "path": str(data), "steps": len(steps)},
+        "selection": rows,
+        "training_wall_time_s": wall,
+    }
+    save_model(out, best, metadata)
+    plot = plot_model_selection(rows, out.with_suffix(".png"))
+    lines = [f"{'kernel':9s} {'S':>3s} {'free energy':>13s} {'EV joints':>10s} {'EV zmp':>8s} {'EV pelvis':>10s} {'iter':>5s}"]
+    for r in rows:
+        ev = r["explained_variance"]
+        mark = "  <- best" if (r["kernel"], r["n_primitives"]) == (best.kernel, best.n_primitives) else ""
+        lines.append(
+            f"{r['kernel']:9s} {r['n_primitives']:3d} {r['bound']:13.1f} {100 * ev['joints']:9.3f}% "
+            f"{100 * ev['zmp']:7.3f}% {100 * ev['pelvis']:9.3f}% {r['iterations']:5d}{mark}"
+        )
+    lines.append(f"wrote {out} ({best.kernel}, {best.n_primitives} primitives) and {plot} in {wall:.0f} s")
+    payload = {"output": str(out), "plot": str(plot), "kernel": best.kernel, "n_primitives": best.n_primitives,
+               "bound": best.bound_, "explained_variance": best.explained_variance_, "selection": rows,
+               "wall_time_s": wall}
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
+def _versions() -> dict:
+    from importlib.metadata import version
+
+    return {p: version(p) for p in ("cocomopl", "numpy", "scipy", "jax", "pin", "crocoddyl")}
+
+
+def cmd_model_info(args) -> int:
+    from cocomopl.primitives.model_file import model_metadata
+
+    path = _model_path(args.file)
+    meta = model_metadata(path)
+    info = {"file": str(path), **{k: meta.get(k) for k in (
+        "n_primitives", "kernel", "bound", "explained_variance", "n_grid", "created", "command", "versions",
+        "dataset", "training_wall_time_s", "checksum", "format_version")}}
+    if args.verbose:
+        info["selection"] = meta.get("selection")
+    ev = info["explained_variance"] or {}
+    table = "\n".join([
+        f"{path}: {info['n_primitives']} primitives, {info['kernel']} kernel, free energy {info['bound']:.1f}",
+        "explained variance: " + ", ".join(f"{g} {100 * v:.3f}%" for g, v in ev.items()),
+        f"trained {info['created']} by: {info['command']}",
+        f"from {info['dataset']}",
+    ])
+    _emit(args, info, table)
+    return 0
+
+
+def cmd_generate(args) -> int:
+    import time
+    import warnings
+
+    from cocomopl.motion_file import write_motions
+    from cocomopl.primitives.model_file import load_model
+    from cocomopl.robot import Robot
+    from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
+    from cocomopl.synthesis.world import place_steps
+
+    lengths = parse_sequence_mm(args.lengths_mm)
+    out = Path(args.out)
+    if out.is_dir():
+        raise Error(f"--out {out} is a directory; give a file path such as {out / 'motion.h5'}")
+    model = load_model(_model_path(args.model)).prepare()  # loading ends here; generation is timed below
+    robot = Robot(model.metadata_.get("robot", "talos"))
+    specs = sequence_specs(lengths, args.first_swing)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", OutOfSupportWarning)
+        started = time.perf_counter()
+        steps = generate_steps(model, specs, strict=args.strict)
+        generation_s = time.perf_counter() - started
+    for w in caught:
+        print(f"cocomopl: warning: {w.message}", file=sys.stderr)
+    started = time.perf_counter()
+    motion = place_steps(robot, steps, args.dt)
+    placement_s = time.perf_counter() - started
+    motion.meta.update({"model": str(_model_path(args.model)), "lengths_mm": [1000 * x for x in lengths]})
+    write_motions(out, {motion.name: motion}, {"robot": robot.name, "producer": "primitives"})
+    rows = [{
+        "step": s.spec.name, "duration_s": s.duration, "duration_std_s": float(np.linalg.norm(s.duration_std)),
+        "joint_std_max_rad": float(s.std[:, :30].max()), "in_support": bool(s.in_support),
+        "distance_mm": 1000 * s.distance} for s in steps]
+    payload = {"output": str(out), "steps": rows, "n_steps": len(steps), "duration_s": motion.duration,
+               "generation_s": generation_s, "placement_s": placement_s,
+               "out_of_support": [r["step"] for r in rows if not r["in_support"]]}
+    lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support"]
+    lines += [f"{r['step']:24s} {r['duration_s']:8.3f}s {r['joint_std_max_rad']:12.4f}rad  "
+              + ("ok" if r["in_support"] else f"OUTSIDE ({r['distance_mm']:.0f} mm away)") for r in rows]
+    lines.append(f"wrote {out}: {len(steps)} steps, {motion.duration:.2f} s of walking; generated in "
+                 f"{generation_s * 1e6:.0f} us, placed in the world in {placement_s * 1e3:.0f} ms")
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
 # ---------------------------------------------------------------------------- plot
 def cmd_plot(args) -> int:
     from cocomopl.analysis.plots import plot_motion
@@ -184,6 +342,39 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--verbose", action="store_true", help="include every motion's values in --json")
     check.add_argument("--json", action="store_true", help="print one JSON object")
     check.set_defaults(func=cmd_dataset_check)
+
+    train = sub.add_parser("train", help="learn movement primitives from a dataset, choosing S and the kernel")
+    train.add_argument("data", nargs="?", help="dataset HDF5 (default: the bundled one)")
+    train.add_argument("--out", default="cocomopl-model.npz", help="output model file (default: %(default)s)")
+    train.add_argument("--primitives", type=_int_list, default=[7, 9, 11, 13, 15],
+                       help="candidate numbers of primitives S (default: 7,9,11,13,15)")
+    train.add_argument("--kernels", type=_kernel_list, default=["rbf", "matern32", "matern52"],
+                       help="candidate time kernels (default: rbf,matern32,matern52)")
+    train.add_argument("--max-iterations", type=_positive_int, default=150, help="L-BFGS-B iterations (default: 150)")
+    train.add_argument("--workers", type=_positive_int, help="local worker processes (default: one per core)")
+    train.add_argument("--json", action="store_true", help="print one JSON object")
+    train.set_defaults(func=cmd_train)
+
+    model = sub.add_parser("model", help="inspect a primitives model").add_subparsers(
+        dest="action", required=True, parser_class=_Parser
+    )
+    minfo = model.add_parser("info", help="summarise a model (default: the bundled one)")
+    minfo.add_argument("file", nargs="?")
+    minfo.add_argument("--verbose", action="store_true", help="include the model-selection table")
+    minfo.add_argument("--json", action="store_true", help="print one JSON object")
+    minfo.set_defaults(func=cmd_model_info)
+
+    gen_walk = sub.add_parser("generate", help="synthesise a walk from step lengths with the primitives")
+    gen_walk.add_argument("--lengths-mm", default=M_GEN_MM,
+                          help="step lengths in millimetres, in order: start, ..., stop (default: the paper's M_gen "
+                          f"{M_GEN_MM})")
+    gen_walk.add_argument("--model", help="model file (default: the bundled one)")
+    gen_walk.add_argument("--out", default="cocomopl-walk.h5", help="output motion HDF5 (default: %(default)s)")
+    gen_walk.add_argument("--dt", type=_positive_float, default=0.025, help="sample spacing in s (default: 0.025)")
+    gen_walk.add_argument("--first-swing", choices=("left", "right"), default="left", help="foot that steps first")
+    gen_walk.add_argument("--strict", action="store_true", help="refuse steps outside the training support")
+    gen_walk.add_argument("--json", action="store_true", help="print one JSON object")
+    gen_walk.set_defaults(func=cmd_generate)
 
     plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
     plot.add_argument("file")

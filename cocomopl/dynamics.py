@@ -72,3 +72,44 @@ def pelvis_placements(robot: Robot, q: np.ndarray) -> list[pin.SE3]:
         pin.framesForwardKinematics(model, data, qk)
         out.append(data.oMf[robot.pelvis_frame].copy())
     return out
+
+
+def inverse_dynamics_with_contacts(
+    robot: Robot, t: np.ndarray, q: np.ndarray, contact: np.ndarray, impacts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Velocities, joint torques and contact wrenches that realise a kinematic motion.
+
+    Velocities and accelerations are forward differences within each impact-free segment
+    (the convention of :func:`finite_difference_accelerations`).  The floating base is
+    unactuated, so the contact wrenches must supply the base rows of inverse dynamics; in
+    double support the least-norm split between the soles is taken.  Torques and wrenches
+    hold over each interval; a segment's last sample repeats the one before.
+
+    Returns
+    -------
+    v : (n, nv), tau : (n, nu) N m, wrenches : (n, 2, 6) at the sole origins, world-aligned
+    """
+    model, data = robot.model, robot.model.createData()
+    n = len(t)
+    v = np.zeros((n, model.nv))
+    tau = np.zeros((n, model.nv - 6))
+    wrenches = np.zeros((n, 2, 6))
+    bounds = np.concatenate([[-1], impacts, [n - 1]])
+    for first, last in zip(bounds[:-1] + 1, bounds[1:]):
+        for k in range(first, last):
+            v[k] = pin.difference(model, q[k], q[k + 1]) / (t[k + 1] - t[k])
+        v[last] = v[last - 1]
+        for k in range(first, last):
+            a = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
+            rhs = pin.rnea(model, data, q[k], v[k], a)
+            pin.computeJointJacobians(model, data, q[k])
+            pin.updateFramePlacements(model, data)
+            sides = [j for j in range(2) if contact[k, j]]
+            J = np.vstack(
+                [pin.getFrameJacobian(model, data, robot.foot_frames[SIDES[j]], pin.LOCAL_WORLD_ALIGNED) for j in sides]
+            )
+            f = np.linalg.lstsq(J[:, :6].T, rhs[:6], rcond=None)[0]
+            tau[k] = rhs[6:] - J[:, 6:].T @ f
+            wrenches[k, sides] = f.reshape(len(sides), 6)
+        tau[last], wrenches[last] = tau[last - 1], wrenches[last - 1]
+    return v, tau, wrenches

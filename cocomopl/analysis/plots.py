@@ -122,3 +122,21 @@ def plot_motion(robot: Robot, motion: Motion, out_dir: Path) -> list[Path]:
         plot_contact_forces(robot, motion, out_dir / "contact_forces.png"),
         plot_torques(robot, motion, out_dir / "torques.png"),
     ]
+
+
+def plot_model_selection(rows: list[dict], path: Path) -> Path:
+    """Free energy and explained variance against the number of primitives, one line per kernel."""
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for kernel in sorted({r["kernel"] for r in rows}):
+        mine = sorted((r for r in rows if r["kernel"] == kernel), key=lambda r: r["n_primitives"])
+        S = [r["n_primitives"] for r in mine]
+        axes[0].plot(S, [r["bound"] for r in mine], "o-", label=kernel)
+        for group, style in (("joints", "-"), ("zmp", "--"), ("pelvis", ":")):
+            axes[1].plot(S, [100 * r["explained_variance"][group] for r in mine], "o" + style, label=f"{kernel} {group}")
+    axes[0].set(xlabel="number of primitives S", ylabel="free energy (eq. 6)", title="model comparison")
+    axes[1].axhline(99.9, color="k", lw=0.8)
+    axes[1].set(xlabel="number of primitives S", ylabel="explained variance (%)", title="explained variance")
+    axes[0].legend()
+    axes[1].legend(fontsize=7, ncol=2)
+    return save_figure(fig, Path(path))

@@ -79,7 +79,7 @@ def weight_prior(params: dict, data: BoundData):
 def posterior(params: dict, data: BoundData, kernel: str) -> dict:
     """Means and covariance summaries of Q, and the two KL divergences."""
     A = mp_prior(params, data, kernel)
-    S, T = data.mu.shape
+    T = data.mu.shape[1]
     m = data.mu + jnp.einsum("stu,su->st", jnp.linalg.cholesky(A), params["u"])
     d = jnp.exp(params["log_d"])[:, None, None]
     L_PA = jnp.linalg.cholesky(jnp.eye(T) + d * A)

@@ -54,22 +54,33 @@ class PredictedStep:
     ----------
     spec : StepSpec
     tau : (T,) normalised time grid; ``boundaries`` (P+1,) its phase boundaries
+    weights, weight_var : (I, S) posterior mean and variance of the weights
     values, std : (T, I) posterior mean and standard deviation of the signals
     durations, duration_std : (P,) phase durations and their standard deviation, s
     distance : distance of (start, end) lengths to the nearest training step of the type, m
     in_support : whether that distance is within the training grid's spacing
     """
 
-    def __init__(self, spec, tau, values, std, boundaries, durations, duration_std, distance, in_support):
+    def __init__(self, spec, tau, weights, weight_var, primitives, primitive_var, boundaries, durations,
+                 duration_std, distance, in_support):
         self.spec = spec
         self.tau = tau
-        self.values = values
-        self.std = std
+        self.weights = weights
+        self.weight_var = weight_var
+        self.values = (weights @ primitives).T
+        self._primitives = primitives
+        self._primitive_var = primitive_var
         self.boundaries = boundaries
         self.durations = durations
         self.duration_std = duration_std
         self.distance = distance
         self.in_support = in_support
+
+    @property
+    def std(self) -> np.ndarray:
+        """Posterior standard deviation of the signals, (T, I); computed on demand."""
+        second_moment = self._primitives**2 + self._primitive_var
+        return np.sqrt(self.weight_var @ second_moment + self.weights**2 @ self._primitive_var).T
 
     @property
     def times(self) -> np.ndarray:
@@ -103,7 +114,7 @@ class MovementPrimitives:
         self.max_iterations = max_iterations
 
     # ------------------------------------------------------------------ fit
-    def fit(self, steps: TrainingSteps) -> "MovementPrimitives":
+    def fit(self, steps: TrainingSteps) -> MovementPrimitives:
         """Learn primitives, weight GPs and duration GPs from training steps."""
         from cocomopl.primitives import optimise  # JAX is needed to fit only
 
@@ -158,6 +169,46 @@ class MovementPrimitives:
         if not hasattr(self, "state_"):
             raise Error("this model is not fitted yet: call fit() or load a model file")
 
+    def prepare(self) -> "MovementPrimitives":
+        """Precompute the per-type arrays prediction uses (otherwise done at each type's first use)."""
+        self._check_fitted()
+        for type_ in self.types:
+            self._type_arrays(type_)
+        return self
+
+    def _type_arrays(self, type_: str) -> dict:
+        """Contiguous per-type slices of the state (built once), so predict is a few small products."""
+        if not hasattr(self, "_cache"):
+            self._cache = {}
+        if type_ not in self._cache:
+            s = self.state_
+            types = self.types
+            if type_ not in types:
+                return None
+            g = types.index(type_)
+            n = int(s["mask"][g].sum())
+            P = int(s["n_phases"][g])
+            self._cache[type_] = {
+                "lengths": np.ascontiguousarray(s["lengths"][g, :n]),
+                "chi": s["chi"][:, :, g].ravel(),
+                # training-step axes first, the I*S (signal, primitive) pairs last and contiguous
+                "beta": np.ascontiguousarray(s["beta"][:, :, g, :n].reshape(-1, n).T),
+                **_quadratic_form(s["C"][:, :, g, :n, :n].reshape(-1, n, n)),
+                "boundaries": s["boundaries"][g, : P + 1],
+                "support_radius": float(s["support_radius"][g]),
+                "dur_mean": s["dur_mean"][g, :P],
+                "dur_alpha": s["dur_alpha"][g, :P, None],
+                "dur_gamma": s["dur_gamma"][g, :P, None],
+                "dur_beta": np.ascontiguousarray(s["dur_beta"][g, :P, :n]),
+                "dur_K_inv": np.ascontiguousarray(s["dur_K_inv"][g, :P, :n, :n]),
+                "alpha_w": s["alpha_w"].ravel(),
+                "minus_gamma_w": -s["gamma_w"].ravel(),
+                "floor": VARIANCE_FLOOR * s["alpha_w"].ravel(),
+                "h": s["m"][:, 0].copy(),
+                "conditioned": (~s["unconditioned"]).astype(float),
+            }
+        return self._cache[type_]
+
     def predict(self, spec: StepSpec, start: np.ndarray | None = None) -> PredictedStep:
         """Posterior mean and uncertainty of a step.
 
@@ -170,56 +221,37 @@ class MovementPrimitives:
             at touchdown, in the OC data too.
         """
         self._check_fitted()
-        s = self.state_
-        try:
-            g = self.types.index(step_type(spec))
-        except ValueError:
-            raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot") from None
+        c = self._type_arrays(step_type(spec))
+        if c is None:
+            raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
         z = step_lengths(spec)
-        mask = s["mask"][g]
-        d2 = ((s["lengths"][g] - z) ** 2).sum(axis=1)
-        b = s["alpha_w"][:, :, None] * np.exp(-s["gamma_w"][:, :, None] * d2) * mask  # (I, S, N)
-        w = s["chi"][:, :, g] + np.einsum("isn,isn->is", b, s["beta"][:, :, g])
-        var = s["alpha_w"] - np.einsum("isn,isn->is", b, (s["C"][:, :, g] @ b[..., None])[..., 0])
-        var = np.maximum(var, 0.0) + VARIANCE_FLOOR * s["alpha_w"]
+        d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
+        # weights of all (signal, primitive) pairs at once, flattened to (I*S,): cross-covariances
+        # with the type's training steps, then the GP posterior mean and variance
+        b = c["alpha_w"] * np.exp(np.multiply.outer(d2, c["minus_gamma_w"]))  # (n, I*S)
+        w = c["chi"] + np.einsum("nk,nk->k", c["beta"], b)
+        var = c["alpha_w"] - np.einsum("pk,pk->k", c["C_pairs"], b[c["rows"]] * b[c["cols"]])
+        shape = self.state_["alpha_w"].shape
+        w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
         if start is not None:
-            w, var = self._condition(w, var, np.asarray(start, dtype=float))
-        m, m_var = s["m"], s["m_var"]
-        values = (w @ m).T
-        std = np.sqrt(var @ (m**2 + m_var) + w**2 @ m_var).T
-        durations, duration_std = self._durations(g, z)
-        distance = float(np.sqrt(d2[mask > 0].min()))
+            w, var = _condition(w, var, np.asarray(start, dtype=float), c["h"], c["conditioned"])
+        k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2)  # (P, n)
+        durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=1))
+        log_var = c["dur_alpha"][:, 0] - (k[:, None, :] @ c["dur_K_inv"] @ k[:, :, None])[:, 0, 0]
+        distance = float(np.sqrt(d2.min()))
         return PredictedStep(
             spec,
-            s["tau"],
-            values,
-            std,
-            s["boundaries"][g, : len(durations) + 1],
+            self.state_["tau"],
+            w,
+            var,
+            self.state_["m"],
+            self.state_["m_var"],
+            c["boundaries"],
             durations,
-            duration_std,
+            durations * np.sqrt(np.maximum(log_var, 0.0)),
             distance,
-            distance <= s["support_radius"][g] + 1e-9,
+            distance <= c["support_radius"] + 1e-9,
         )
-
-    def _condition(self, w: np.ndarray, var: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Gaussian conditioning of each signal's weights on its value at the step's start."""
-        h = self.state_["m"][:, 0]
-        Ph = var * h
-        predicted_var = Ph @ h
-        gain = Ph / (predicted_var * (1.0 + CONDITION_RATIO))[:, None]
-        gain[self.state_["unconditioned"]] = 0.0
-        w = w + gain * (start - w @ h)[:, None]
-        return w, var - gain * Ph
-
-    def _durations(self, g: int, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = self.state_
-        P = int(s["n_phases"][g])
-        d2 = ((s["lengths"][g] - z) ** 2).sum(axis=1)
-        k = s["dur_alpha"][g, :P, None] * np.exp(-s["dur_gamma"][g, :P, None] * d2) * s["mask"][g]  # (P, N)
-        log_mean = s["dur_mean"][g, :P] + np.einsum("pn,pn->p", k, s["dur_beta"][g, :P])
-        log_var = s["dur_alpha"][g, :P] - np.einsum("pn,pn->p", k, (s["dur_K_inv"][g, :P] @ k[..., None])[..., 0])
-        mean = np.exp(log_mean)
-        return mean, mean * np.sqrt(np.maximum(log_var, 0.0))
 
     # ------------------------------------------------------------------ score
     def reconstruct(self, steps: TrainingSteps) -> tuple[np.ndarray, np.ndarray]:
@@ -241,6 +273,23 @@ class MovementPrimitives:
         X, X_hat = self.reconstruct(steps)
         centred = X - X.mean(axis=(0, 2), keepdims=True)
         return float(1.0 - ((X - X_hat) ** 2).sum() / (centred**2).sum())
+
+
+def _condition(w, var, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:
+    """Gaussian conditioning of each signal's weights on its value ``h @ w`` at the step's start.
+
+    Weights are independent a posteriori, so per signal this is a rank-one Kalman update.
+    """
+    Ph = var * h
+    gain = Ph * (conditioned / ((Ph @ h) * (1.0 + CONDITION_RATIO)))[:, None]
+    return w + gain * (start - w @ h)[:, None], var - gain * Ph
+
+
+def _quadratic_form(C: np.ndarray) -> dict:
+    """``b^T C b`` of symmetric (K, n, n) matrices as a sum over the upper triangle's pairs."""
+    rows, cols = np.triu_indices(C.shape[-1])
+    pairs = C[:, rows, cols] * np.where(rows == cols, 1.0, 2.0)
+    return {"C_pairs": np.ascontiguousarray(pairs.T), "rows": rows, "cols": cols}
 
 
 class _SlotLayout:

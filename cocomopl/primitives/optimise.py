@@ -23,13 +23,16 @@ LOG_BOUNDS = {
 }
 
 
+GAMMA_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 3e3, 1e4)  # 1/m^2: widths 0.7 m .. 7 mm
+
+
 def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, mu: np.ndarray) -> BoundData:
     return BoundData(X_slots, mask, d2, np.abs(tau[:, None] - tau[None, :]), mu)
 
 
 def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, S: int):
     """PCA start: MP means are the leading right singular vectors of the (steps x signals, time) data."""
-    G, N, I, T = X_slots.shape
+    I, T = X_slots.shape[2:]
     real = X_slots[mask > 0]  # (K, I, T)
     _, _, Vt = np.linalg.svd(real.reshape(-1, T), full_matrices=False)
     mu = Vt[:S] * np.sqrt(T)  # unit RMS primitives
@@ -38,15 +41,15 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
     sigma = np.maximum(np.sqrt((residual**2).mean(axis=(0, 2))), 1e-5)
     counts = mask.sum(axis=1)
     chi = (w * mask).sum(axis=-1) / counts
-    spread = ((w - chi[..., None]) ** 2 * mask).sum(axis=(-1, -2)) / mask.sum()
+    alpha_w, gamma_w = _weight_kernel_start(w - chi[..., None], mask, d2)
     params = {
         "u": np.zeros((S, T)),
         "log_d": np.log(np.einsum("isgn,i->s", w**2 * mask, 1 / sigma**2) + 1.0),
         "log_c": np.log(np.full((I, S), T) / sigma[:, None] ** 2),
         "log_alpha_t": np.full(S, np.log(1e-2)),
         "log_ell_t": np.full(S, np.log(0.1)),
-        "log_alpha_w": np.log(np.maximum(spread, 1e-10)),
-        "log_gamma_w": np.full((I, S), np.log(50.0)),
+        "log_alpha_w": np.log(alpha_w),
+        "log_gamma_w": np.log(gamma_w),
         "chi": chi,
         "log_sigma": np.log(sigma),
     }
@@ -54,6 +57,31 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
     L_B = np.linalg.cholesky(np.asarray(weight_prior(params, data)))
     params["v"] = np.linalg.solve(L_B, ((w - chi[..., None]) * mask)[..., None])[..., 0] * mask
     return params, data
+
+
+def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per (signal, primitive), the eq. (5) kernel that best explains the PCA weights.
+
+    A grid over the width, with the amplitude in closed form (profile likelihood).  Starting
+    L-BFGS from widths the data support matters: with a too-wide kernel the whitened weights
+    blow up and the KL term swamps the bound.
+    """
+    n = mask.sum()
+    best = None
+    for gamma in GAMMA_GRID:
+        B = np.exp(-gamma * d2) * (mask[:, :, None] * mask[:, None, :])
+        B = B + np.eye(d2.shape[-1]) * (1.0 - mask[:, :, None]) + 1e-4 * np.eye(d2.shape[-1]) * mask[:, :, None]
+        L = np.linalg.cholesky(B)  # (G, N, N), shared by all (i, s)
+        z = np.linalg.solve(L, (deviation * mask)[..., None])[..., 0]  # (I, S, G, N)
+        alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)
+        log_det = 2 * (np.log(np.diagonal(L, axis1=-2, axis2=-1)) * mask).sum()
+        score = -0.5 * (n * np.log(alpha) + log_det)
+        if best is None:
+            best = (score, alpha, np.full_like(alpha, gamma))
+        else:
+            better = score > best[0]
+            best = (np.where(better, score, best[0]), np.where(better, alpha, best[1]), np.where(better, gamma, best[2]))
+    return best[1], best[2]
 
 
 def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: int) -> dict:

@@ -61,7 +61,7 @@ class TrainingSteps:
     def __len__(self) -> int:
         return len(self.specs)
 
-    def subset(self, keep) -> "TrainingSteps":
+    def subset(self, keep) -> TrainingSteps:
         """The steps at indices ``keep``."""
         keep = list(keep)
         return TrainingSteps(
@@ -102,8 +102,8 @@ def load_training_steps(path) -> TrainingSteps:
                     raise Error(f"{path}: motion {name} has different signals from the others")
         except KeyError as exc:
             raise Error(f"{path} has no training signals ({exc}); regenerate it with 'cocomopl dataset generate'") from None
-        created = f.attrs.get("created", "")
-    return TrainingSteps(specs, values, phase_time, durations, signal_names, {"path": str(path), "created": str(created)})
+        source = {"path": str(path), "created": str(f.attrs.get("created", "")), "robot": str(f.attrs.get("robot", ""))}
+    return TrainingSteps(specs, values, phase_time, durations, signal_names, source)
 
 
 def _phase_durations(t: np.ndarray, phase_time: np.ndarray) -> np.ndarray:

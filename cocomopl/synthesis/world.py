@@ -1,0 +1,183 @@
+"""Place a chain of predicted steps in the world and make it a :class:`Motion`.
+
+Each step's signals are resampled from its normalised grid to real time (cubic splines, so
+velocities and accelerations exist).  Footsteps follow from the step lengths; the pelvis
+takes the learned orientation, and its position comes by forward kinematics from the feet
+on the ground: from the stance foot in single support, blended from the old to the new
+stance foot over double support.  Torques and contact wrenches come from Pinocchio inverse
+dynamics of the resulting motion, so every analysis tool can read it like an OC motion.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from scipy.interpolate import CubicSpline
+
+from cocomopl.dynamics import SIDES, inverse_dynamics_with_contacts
+from cocomopl.motion import Motion
+from cocomopl.ocp.problems import foot_separation
+from cocomopl.primitives.model import PredictedStep
+from cocomopl.robot import Robot
+
+OTHER = {"left": "right", "right": "left"}
+
+
+def footsteps(robot: Robot, steps: list[PredictedStep]) -> list[dict]:
+    """Where each sole stands at each step's start and end, world frame (x forward, z up)."""
+    y = foot_separation(robot) / 2
+    feet = {"left": np.array([0.0, y, 0.0]), "right": np.array([0.0, -y, 0.0])}
+    out = []
+    for step in steps:
+        spec = step.spec
+        start = {k: v.copy() for k, v in feet.items()}
+        stance = OTHER[spec.swing_side]
+        landing = feet[stance][0] + (spec.start_length if spec.kind == "stop" else spec.end_length)
+        feet[spec.swing_side][0] = landing
+        if spec.kind == "stop":  # the stance foot closes up beside it
+            feet[stance][0] = landing
+        out.append({"start": start, "end": {k: v.copy() for k, v in feet.items()}})
+    return out
+
+
+def _phase_plan(step: PredictedStep) -> list[tuple[str, str | None]]:
+    """(phase kind, foot in the air or None) per phase of a step."""
+    swing, stance = step.spec.swing_side, OTHER[step.spec.swing_side]
+    plan = [("ds", None), ("ss", swing)]
+    if step.spec.kind == "stop":
+        plan += [("ds", None), ("ss", stance), ("ds", None)]
+    return plan
+
+
+def _segments(step: PredictedStep) -> list[tuple[int, int]]:
+    """(first, last) phases of each impact-free part: a touchdown ends every single support."""
+    plan, out, first = _phase_plan(step), [], 0
+    for p, (kind, _) in enumerate(plan):
+        if kind == "ss" or p == len(plan) - 1:
+            out.append((first, p))
+            first = p + 1
+    return out
+
+
+def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Real times, signals and phase index of a step sampled every ``dt``.
+
+    Each impact-free part gets its own cubic spline, so velocities may jump at a touchdown
+    (as they do physically) without the spline ringing; the touchdown time then appears
+    twice, pre- and post-impact, as in every :class:`Motion`.
+    """
+    edges = np.concatenate([[0.0], np.cumsum(step.durations)])
+    ts, values, phases = [], [], []
+    for first, last in _segments(step):
+        t0, t1 = edges[first], edges[last + 1]
+        b0, b1 = step.boundaries[first], step.boundaries[last + 1]
+        inside = (step.tau > b0) & (step.tau < b1)
+        knots = np.concatenate([[b0], step.tau[inside], [b1]])
+        ends = [np.array([np.interp(b, step.tau, x) for x in step.values.T]) for b in (b0, b1)]
+        spline = CubicSpline(knots, np.vstack([ends[0], step.values[inside], ends[1]]), axis=0)
+        n = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
+        t = np.minimum(t0 + np.arange(n + 1) * dt, t1)
+        t[-1] = t1  # exactly: the next part starts at the same instant
+        ts.append(t)
+        values.append(spline(np.interp(t, edges, step.boundaries)))
+        phases.append(np.clip(np.searchsorted(edges, t, side="right") - 1, first, last))
+    return np.concatenate(ts), np.concatenate(values), np.concatenate(phases)
+
+
+def _support(air: str | None) -> np.ndarray:
+    """(left, right) weights of the soles on the ground when ``air`` swings (None: both, evenly)."""
+    if air is None:
+        return np.array([0.5, 0.5])
+    return np.array([float(air != side) for side in SIDES])
+
+
+def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first: bool) -> np.ndarray:
+    """Weight (n, 2) of the (left, right) sole in the pelvis position, per sample.
+
+    Single support hangs on the stance sole; double support blends from the sole that
+    carried the previous phase to the one that carries the next, so the pelvis never jumps.
+    """
+    edges = np.concatenate([[0.0], np.cumsum(step.durations)])
+    plan = _phase_plan(step)
+    # before the step the previous step's stance foot, this step's swing foot, carried the robot
+    previous_air = None if first else OTHER[step.spec.swing_side]
+    out = np.zeros((len(t), 2))
+    for p, (kind, air) in enumerate(plan):
+        rows = phase == p
+        if kind == "ss":
+            out[rows] = _support(air)
+            continue
+        before = _support(plan[p - 1][1] if p > 0 else previous_air)
+        after = _support(plan[p + 1][1] if p + 1 < len(plan) else None)
+        s = (t[rows] - edges[p]) / (edges[p + 1] - edges[p])
+        out[rows] = (1 - s)[:, None] * before + s[:, None] * after
+    return out
+
+
+def _ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
+    """Where a sole stands in a phase: its start position until it has swung, then its end."""
+    swung = any(air == side for _, air in plan[:phase])
+    return feet["end" if swung else "start"][side]
+
+
+def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> Motion:
+    """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds."""
+    model, data = robot.model, robot.model.createData()
+    n_joints = len(robot.joint_names)
+    feet_per_step = footsteps(robot, steps)
+    ts, qs, zmps, contacts, phases, starts, impacts = [], [], [], [], [], [], []
+    offset, count = 0.0, 0
+    for k, (step, feet) in enumerate(zip(steps, feet_per_step)):
+        t, values, phase = _sample_step(step, dt)
+        weights = _anchor_weights(step, t, phase, first=(k == 0))
+        plan = _phase_plan(step)
+        joints, zmp_local, rpy = values[:, :n_joints], values[:, n_joints : n_joints + 3], values[:, n_joints + 3 :]
+        q = np.empty((len(t), model.nq))
+        zmp = np.empty((len(t), 3))
+        for j in range(len(t)):
+            R = pin.rpy.rpyToMatrix(rpy[j])
+            q[j] = robot.q_ref
+            q[j, :3] = 0.0
+            q[j, 3:7] = [0, 0, 0, 1]
+            q[j, 7:] = joints[j]
+            pin.framesForwardKinematics(model, data, q[j])
+            position = np.zeros(3)
+            for s, side in enumerate(SIDES):
+                if weights[j, s] > 0:
+                    sole = data.oMf[robot.foot_frames[side]].translation  # in the pelvis frame
+                    position += weights[j, s] * (_ground_position(feet, plan, side, phase[j]) - R @ sole)
+            q[j, :3] = position
+            q[j, 3:7] = pin.Quaternion(R).coeffs()
+            zmp[j] = position + R @ zmp_local[j]
+        contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
+        for p in range(len(plan)):
+            rows = np.flatnonzero(phase == p)
+            phases.append((plan[p][0], count + int(rows[0]), count + int(rows[-1]) + (plan[p][0] == "ds" and p + 1 < len(plan))))
+        impacts += [count + int(i) for i in np.flatnonzero(np.diff(t) == 0)]
+        starts.append(count)
+        ts.append(offset + t)
+        qs.append(q)
+        zmps.append(zmp)
+        contacts.append(contact)
+        offset += t[-1]
+        count += len(t)
+        impacts.append(count - 1)
+    t, q, contact = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts)
+    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, np.array(impacts[:-1]))
+    return Motion(
+        t=t,
+        q=q,
+        v=v,
+        tau=tau,
+        wrenches=wrenches,
+        contact=contact,
+        zmp=np.concatenate(zmps),
+        phases=phases,
+        impacts=np.array(impacts[:-1], dtype=int),
+        steps=[s.spec for s in steps],
+        step_starts=np.array(starts, dtype=int),
+        joint_names=list(robot.joint_names),
+        robot=robot.name,
+        meta={"producer": "primitives"},
+    )
+

@@ -1,0 +1,204 @@
+"""The movement-primitive model: its bound, its gradients, conditioning, synthesis and the CLI.
+
+A deliberately small model (3 primitives, 30 grid points, 30 L-BFGS iterations) is fitted
+once on the bundled dataset; the tests check properties, not accuracy.
+"""
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_cli_errors import assert_one_line_error, run_cli
+
+import cocomopl
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.primitives.model import MovementPrimitives
+from cocomopl.primitives.training import load_training_steps, phase_templates, resample, step_type
+from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
+
+DATASET = Path(cocomopl.__file__).parent / "data" / "dataset.h5"
+M_GEN = [0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15]
+
+
+@pytest.fixture(scope="module")
+def steps():
+    return load_training_steps(DATASET)
+
+
+@pytest.fixture(scope="module")
+def model(steps):
+    return MovementPrimitives(n_primitives=3, kernel="matern52", n_grid=30, max_iterations=30).fit(steps)
+
+
+@pytest.fixture(scope="module")
+def model_file(model, tmp_path_factory):
+    from cocomopl.primitives.model_file import save_model
+
+    path = tmp_path_factory.mktemp("model") / "small.npz"
+    save_model(path, model, {"robot": "talos", "command": "pytest"})
+    return path
+
+
+def test_time_normalisation_aligns_phase_boundaries(steps):
+    templates = phase_templates(steps)
+    for spec, pt in zip(steps.specs, steps.phase_time):
+        b = templates[step_type(spec)]
+        assert len(b) == int(round(pt[-1])) + 1
+        assert b[0] == 0.0 and b[-1] == 1.0 and np.all(np.diff(b) > 0)
+    # the grid values at the ends are the step's first and last samples
+    X = resample(steps.subset([0]), templates, np.linspace(0, 1, 7))
+    np.testing.assert_allclose(X[0, :, 0], steps.values[0][0])
+    np.testing.assert_allclose(X[0, :, -1], steps.values[0][-1])
+
+
+def test_gradient_matches_finite_differences(steps):
+    import jax
+    import jax.numpy as jnp
+    from jax.flatten_util import ravel_pytree
+
+    from cocomopl.primitives.bound import free_energy
+    from cocomopl.primitives.model import _SlotLayout
+    from cocomopl.primitives.optimise import initial_parameters
+
+    few = steps.subset(range(0, len(steps), 4))
+    tau = np.linspace(0, 1, 12)
+    layout = _SlotLayout(few)
+    X = resample(few, phase_templates(few), tau)
+    params, data = initial_parameters(layout.to_slots(X), layout.mask, layout.d2, tau, 2)
+    rng = np.random.default_rng(0)
+    params = {k: v + 0.05 * rng.standard_normal(np.shape(v)) for k, v in params.items()}
+    flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
+    f = jax.jit(lambda x: free_energy(unravel(x), data, "rbf"))
+    grad = np.asarray(jax.grad(lambda x: free_energy(unravel(x), data, "rbf"))(flat))
+    for i in rng.choice(flat.size, 25, replace=False):
+        e = np.zeros(flat.size)
+        h = 1e-6 * max(1.0, abs(float(flat[i])))
+        e[i] = h
+        numeric = (float(f(flat + e)) - float(f(flat - e))) / (2 * h)
+        assert numeric == pytest.approx(grad[i], rel=1e-4, abs=1e-4 * (1 + abs(numeric)) + 1e-6)
+
+
+def test_fit_reports_bound_and_explained_variance(model, steps):
+    assert np.isfinite(model.bound_)
+    assert set(model.explained_variance_) == {"joints", "zmp", "pelvis"}
+    assert all(0.8 < v <= 1.0 for v in model.explained_variance_.values())
+    # predicting the training steps reproduces the fit: the overall explained variance is a
+    # variance-weighted mean of the groups'
+    ev = model.explained_variance_.values()
+    assert min(ev) - 1e-3 <= model.score(steps) <= max(ev) + 1e-3
+
+
+def test_prediction_at_training_step_has_training_duration(model, steps):
+    k = [s.name for s in steps.specs].index("cyclic_250_L")
+    step = model.predict(steps.specs[k])
+    np.testing.assert_allclose(step.durations, steps.durations[k], rtol=0.02)
+    assert step.in_support and step.distance == 0.0
+    assert step.values.shape == (30, 36) and np.all(step.std >= 0)
+
+
+def test_conditioning_makes_the_sequence_continuous(model):
+    specs = sequence_specs(M_GEN)
+    chained = generate_steps(model, specs)
+    free = [model.predict(s) for s in specs]
+    joints = slice(0, 30)
+    chained_gap = max(np.abs(a.values[-1, joints] - b.values[0, joints]).max() for a, b in zip(chained, chained[1:]))
+    free_gap = max(np.abs(a.values[-1, joints] - b.values[0, joints]).max() for a, b in zip(free, free[1:]))
+    assert chained_gap < 1e-5
+    assert free_gap > 100 * chained_gap
+
+
+def test_sequence_specs_alternate_feet_and_choose_kinds():
+    specs = sequence_specs(M_GEN)
+    assert [s.kind for s in specs] == ["start", "cyclic"] + ["transition"] * 6 + ["stop"]
+    assert [s.swing_side for s in specs[:3]] == ["left", "right", "left"]
+    assert (specs[3].start_length, specs[3].end_length) == (0.25, 0.35)
+    assert (specs[-1].start_length, specs[-1].end_length) == (0.15, 0.0)
+
+
+@pytest.mark.parametrize("text, words", [("150", ["at least two"]), ("150,-5", ["'-5'", "positive"]),
+                                         ("150,nan", ["'nan'"]), ("150,abc", ["'abc'", "not a number"]), ("", ["no step"])])
+def test_bad_sequences_are_refused(text, words):
+    with pytest.raises(Error) as err:
+        parse_sequence_mm(text)
+    for w in words:
+        assert w in str(err.value)
+
+
+def test_out_of_support_warns_and_strict_refuses(model):
+    far = sequence_specs([0.25, 0.6, 0.25])
+    with pytest.warns(OutOfSupportWarning, match="mm from the nearest training step"):
+        generate_steps(model, far)
+    with pytest.raises(Error, match="--strict"):
+        generate_steps(model, far, strict=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        generate_steps(model, sequence_specs([0.25, 0.25, 0.3, 0.3]))  # inside the support: silent
+
+
+def test_unknown_step_type_is_an_error(steps):
+    cyclic = [k for k, s in enumerate(steps.specs) if s.kind == "cyclic"]
+    only_cyclic = MovementPrimitives(2, n_grid=15, max_iterations=5).fit(steps.subset(cyclic))
+    with pytest.raises(Error, match="no start steps"):
+        only_cyclic.predict(StepSpec("start", 0.0, 0.25, "left"))
+
+
+def test_placed_walk_is_a_consistent_motion(model, robot):
+    from cocomopl.analysis.feasibility import check_motion
+    from cocomopl.dynamics import sole_placements
+    from cocomopl.synthesis.world import place_steps
+
+    motion = place_steps(robot, generate_steps(model, sequence_specs([0.25, 0.25, 0.25])), dt=0.025)
+    assert motion.q.shape[1] == robot.model.nq and motion.tau.shape[1] == len(robot.joint_names)
+    # 2 junctions, and the stop's two touchdowns (its step, then the other foot closing up)
+    assert np.all(np.diff(motion.t) >= 0) and len(motion.impacts) == 4
+    report = check_motion(robot, motion, 0.7)
+    assert report["inverse_dynamics_residual"] < 1e-6  # torques and wrenches realise the kinematics
+    soles = sole_placements(robot, motion.q)
+    for kind, first, last in motion.phases:  # the stance sole hangs still in single support
+        if kind == "ss":
+            j = int(np.flatnonzero(motion.contact[first + 1])[0])
+            assert np.abs(soles[first : last + 1, j] - soles[first, j]).max() < 1e-6
+    # at rest the pelvis hangs evenly on both soles, planned together three 250 mm steps ahead
+    assert soles[-1, :, 0].mean() == pytest.approx(0.75, abs=1e-6)
+
+
+def test_generate_cli_json_and_motion_file(model_file, tmp_path):
+    from cocomopl.motion_file import read_motion
+
+    out = tmp_path / "walk.h5"
+    result = run_cli("generate", "--model", str(model_file), "--lengths-mm", "150,250,250,150", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    payload = json.loads(result.stdout)
+    assert [s["step"] for s in payload["steps"]] == ["start_150_L", "transition_150_250_R", "cyclic_250_L", "stop_150_R"]
+    assert 0 < payload["generation_s"] < 1.0
+    motion = read_motion(out)
+    assert [s.name for s in motion.steps] == [s["step"] for s in payload["steps"]]
+
+
+def test_generate_cli_strict_and_bad_input(model_file, tmp_path):
+    out = tmp_path / "walk.h5"
+    strict = run_cli("generate", "--model", str(model_file), "--lengths-mm", "250,600,250", "--out", str(out), "--strict")
+    assert_one_line_error(strict, "refused (--strict)")
+    for text, word in (("150", "at least two"), ("150,-1", "positive"), ("x,150", "not a number")):
+        assert_one_line_error(run_cli("generate", "--model", str(model_file), "--lengths-mm", text, "--out", str(out)), word)
+    assert not out.exists()
+
+
+def test_model_info_cli(model_file, tmp_path):
+    result = run_cli("model", "info", str(model_file), "--json")
+    info = json.loads(result.stdout)
+    assert info["n_primitives"] == 3 and info["kernel"] == "matern52"
+    assert set(info["explained_variance"]) == {"joints", "zmp", "pelvis"} and np.isfinite(info["bound"])
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a model")
+    assert_one_line_error(run_cli("model", "info", str(bad)), str(bad))
+
+
+def test_train_cli_bad_options(tmp_path):
+    assert run_cli("train", "--primitives", "0", "--out", str(tmp_path / "m.npz")).returncode == 2
+    assert run_cli("train", "--kernels", "cubic", "--out", str(tmp_path / "m.npz")).returncode == 2
+    assert_one_line_error(run_cli("train", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "m.npz")), "not found")
+    assert list(tmp_path.iterdir()) == []
