@@ -16,6 +16,19 @@ PAPER_LENGTHS_M = (0.15, 0.25, 0.30, 0.35, 0.40)
 MAX_LENGTH_M = 0.80  # beyond any human-sized humanoid's stride; the IK rejects earlier
 
 
+def length_mm_to_m(item: str) -> float:
+    """One step length given in millimetres, in metres; an :class:`Error` unless a positive number within reach."""
+    try:
+        value = float(item)
+    except ValueError:
+        raise Error(f"step length {item!r} is not a number (millimetres expected)") from None
+    if not math.isfinite(value) or value <= 0:
+        raise Error(f"step length {item!r} mm must be a positive finite number")
+    if value / 1000 > MAX_LENGTH_M:
+        raise Error(f"step length {value:g} mm is beyond reach (at most {MAX_LENGTH_M * 1000:g} mm)")
+    return round(value / 1000, 6)
+
+
 def parse_lengths_mm(text: str) -> tuple[float, ...]:
     """Parse a comma-separated list of step lengths in millimetres into metres.
 
@@ -27,17 +40,7 @@ def parse_lengths_mm(text: str) -> tuple[float, ...]:
     items = [s.strip() for s in str(text).split(",") if s.strip()]
     if not items:
         raise Error("no step lengths given: expected e.g. --lengths-mm 150,250,300")
-    lengths = []
-    for item in items:
-        try:
-            value = float(item)
-        except ValueError:
-            raise Error(f"step length {item!r} is not a number (millimetres expected)") from None
-        if not math.isfinite(value) or value <= 0:
-            raise Error(f"step length {item!r} mm must be a positive finite number")
-        if value / 1000 > MAX_LENGTH_M:
-            raise Error(f"step length {value:g} mm is beyond reach (at most {MAX_LENGTH_M * 1000:g} mm)")
-        lengths.append(round(value / 1000, 6))
+    lengths = [length_mm_to_m(item) for item in items]
     if len(set(lengths)) != len(lengths):
         raise Error("step lengths must be distinct")
     return tuple(sorted(lengths))

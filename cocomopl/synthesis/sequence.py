@@ -6,6 +6,7 @@ import math
 import warnings
 from collections.abc import Sequence
 
+from cocomopl.dataset.plan import length_mm_to_m
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.model import MovementPrimitives, PredictedStep
@@ -64,15 +65,7 @@ def parse_sequence_mm(text: str) -> list[float]:
     items = [s.strip() for s in str(text).split(",")]
     if not any(items):
         raise Error("no step lengths given: expected e.g. --lengths-mm 150,150,250,150")
-    out = []
-    for item in items:
-        try:
-            value = float(item)
-        except ValueError:
-            raise Error(f"step length {item!r} is not a number (millimetres expected)") from None
-        if not math.isfinite(value) or value <= 0:
-            raise Error(f"step length {item!r} mm must be a positive finite number")
-        out.append(value / 1000)
+    out = [length_mm_to_m(item) for item in items]
     if len(out) < 2:
         raise Error(f"a walk needs at least two steps (a start and a stop), got {len(out)}")
     return out
