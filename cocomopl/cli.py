@@ -181,7 +181,7 @@ def cmd_train(args) -> int:
     out = Path(args.out)
     if out.is_dir():
         raise Error(f"--out {out} is a directory; give a file path such as {out / 'model.npz'}")
-    writable_folder(out.parent if str(out.parent) else Path("."), "the model")
+    writable_folder(out.parent, f"the folder of --out {out}")
     data = _dataset_path(args.data)
     steps = load_training_steps(data)
     started = time.perf_counter()
@@ -252,7 +252,7 @@ def cmd_generate(args) -> int:
     import time
     import warnings
 
-    from cocomopl.motion_file import write_motions
+    from cocomopl.motion_file import writable_folder, write_motions
     from cocomopl.primitives.model_file import load_model
     from cocomopl.robot import Robot
     from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
@@ -262,6 +262,7 @@ def cmd_generate(args) -> int:
     out = Path(args.out)
     if out.is_dir():
         raise Error(f"--out {out} is a directory; give a file path such as {out / 'motion.h5'}")
+    writable_folder(out.parent, f"the folder of --out {out}")
     model = load_model(_model_path(args.model)).prepare()  # loading ends here; generation is timed below
     robot = Robot(model.metadata_.get("robot", "talos"))
     specs = sequence_specs(lengths, args.first_swing)

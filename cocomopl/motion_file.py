@@ -39,8 +39,11 @@ def writable_folder(folder: Path, purpose: str) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise Error(f"cannot create {purpose}: {exc.strerror}") from None
-    if not os.access(folder, os.W_OK):
-        raise Error(f"cannot write to {purpose}: permission denied")
+    try:  # a real probe: permission bits say nothing on read-only or virtual file systems
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise Error(f"cannot write to {purpose}: {exc.strerror}") from None
     return folder
 
 

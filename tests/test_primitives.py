@@ -185,6 +185,10 @@ def test_generate_cli_strict_and_bad_input(model_file, tmp_path):
     for text, word in (("150", "at least two"), ("150,-1", "positive"), ("x,150", "not a number")):
         assert_one_line_error(run_cli("generate", "--model", str(model_file), "--lengths-mm", text, "--out", str(out)), word)
     assert not out.exists()
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    unwritable = run_cli("generate", "--model", str(model_file), "--out", str(blocker / "walk.h5"))
+    assert_one_line_error(unwritable, "cannot create")
 
 
 def test_model_info_cli(model_file, tmp_path):
@@ -201,4 +205,7 @@ def test_train_cli_bad_options(tmp_path):
     assert run_cli("train", "--primitives", "0", "--out", str(tmp_path / "m.npz")).returncode == 2
     assert run_cli("train", "--kernels", "cubic", "--out", str(tmp_path / "m.npz")).returncode == 2
     assert_one_line_error(run_cli("train", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "m.npz")), "not found")
+    (tmp_path / "a-file").write_text("")
+    assert_one_line_error(run_cli("train", "--out", str(tmp_path / "a-file" / "m.npz")), "cannot create")
+    (tmp_path / "a-file").unlink()
     assert list(tmp_path.iterdir()) == []
