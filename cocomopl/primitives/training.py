@@ -16,11 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.motion import STEP_KINDS, StepSpec
+from cocomopl.motion import StepSpec
 from cocomopl.motion_file import open_checked
 
-SIDES = ("left", "right")
-STEP_TYPES = tuple(f"{kind}_{side}" for kind in STEP_KINDS for side in SIDES)
 
 
 def step_type(spec: StepSpec) -> str:
