@@ -33,6 +33,11 @@ def save_figure(fig, path: Path) -> Path:
     return path
 
 
+def _zmp_label(motion: Motion) -> str:
+    # an OC motion stores its contact wrenches' ZMP; a generated one the ZMP it learned
+    return "ZMP (learned)" if motion.meta.get("producer") == "primitives" else "ZMP (contact wrenches)"
+
+
 def _phase_shading(ax, motion: Motion) -> None:
     for kind, first, last in motion.phases:
         if kind == "ds":
@@ -88,7 +93,7 @@ def plot_zmp(robot: Robot, motion: Motion, path: Path) -> Path:
                 drawn.add(key)
                 poly = np.vstack([corners, corners[:1]]) + soles[k, j, :2]
                 ax.plot(poly[:, 0], poly[:, 1], color="tab:blue" if side == "left" else "tab:red", lw=1)
-    ax.plot(motion.zmp[:, 0], motion.zmp[:, 1], "k.-", ms=3, lw=1, label="ZMP (contact wrenches)")
+    ax.plot(motion.zmp[:, 0], motion.zmp[:, 1], "k.-", ms=3, lw=1, label=_zmp_label(motion))
     ax.plot([], [], color="tab:blue", label="left sole")
     ax.plot([], [], color="tab:red", label="right sole")
     ax.set_aspect("equal")
