@@ -177,6 +177,7 @@ def cmd_train(args) -> int:
     from cocomopl.primitives.model_file import save_model
     from cocomopl.primitives.selection import select_model
     from cocomopl.primitives.training import load_training_steps
+    from cocomopl.provenance import versions
 
     out = Path(args.out)
     if out.is_dir():
@@ -197,7 +198,7 @@ def cmd_train(args) -> int:
     metadata = {
         "command": "cocomopl " + " ".join(shlex.quote(a) for a in sys.argv[1:]),
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "versions": _versions(),
+        "versions": versions(["numpy", "scipy", "jax", "jaxlib", "pin", "crocoddyl"]),
         "robot": steps.source["robot"] or "talos",
         "dataset": {**steps.source, "path": str(data), "steps": len(steps)},
         "selection": rows,
@@ -219,12 +220,6 @@ def cmd_train(args) -> int:
                "wall_time_s": wall}
     _emit(args, payload, "\n".join(lines))
     return 0
-
-
-def _versions() -> dict:
-    from importlib.metadata import version
-
-    return {p: version(p) for p in ("cocomopl", "numpy", "scipy", "jax", "pin", "crocoddyl")}
 
 
 def cmd_model_info(args) -> int:

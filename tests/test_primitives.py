@@ -204,6 +204,8 @@ def test_model_info_cli(model_file, tmp_path):
 def test_train_cli_bad_options(tmp_path):
     assert run_cli("train", "--primitives", "0", "--out", str(tmp_path / "m.npz")).returncode == 2
     assert run_cli("train", "--kernels", "cubic", "--out", str(tmp_path / "m.npz")).returncode == 2
+    too_many = run_cli("train", "--primitives", "200", "--kernels", "rbf", "--out", str(tmp_path / "m.npz"))
+    assert_one_line_error(too_many, "200 primitives cannot exceed")
     assert_one_line_error(run_cli("train", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "m.npz")), "not found")
     (tmp_path / "a-file").write_text("")
     assert_one_line_error(run_cli("train", "--out", str(tmp_path / "a-file" / "m.npz")), "cannot create")

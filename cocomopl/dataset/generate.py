@@ -27,6 +27,7 @@ from cocomopl.motion import Motion, StepSpec
 from cocomopl.motion_file import read_motion, writable_folder, write_motions
 from cocomopl.ocp.models import OCPSettings
 from cocomopl.ocp.solve import length_steps, solve_length, solve_with_retries, to_motion
+from cocomopl.provenance import versions
 from cocomopl.robot import Robot, mirror_motion
 
 @dataclass
@@ -86,21 +87,6 @@ def transition_job(robot_name: str, settings: dict, spec: StepSpec, cyclic_from:
 
 def _part_path(parts: Path, spec: StepSpec) -> Path:
     return parts / f"{spec.name}.h5"
-
-
-def _versions() -> dict:
-    from importlib.metadata import version
-
-    import cocomopl
-
-    names = ["pin", "crocoddyl", "example-robot-data", "numpy", "h5py", "dask"]
-    out = {"cocomopl": cocomopl.__version__, "python": sys.version.split()[0]}
-    for name in names:
-        try:
-            out[name] = version(name)
-        except Exception:  # a missing optional package is recorded as such
-            out[name] = None
-    return out
 
 
 class _Executor:
@@ -236,7 +222,7 @@ def generate(
         "settings": settings.as_dict(),
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "command": command,
-        "versions": _versions(),
+        "versions": versions(["pin", "crocoddyl", "example-robot-data", "numpy", "h5py", "dask"]),
         "wall_time_s": wall,
         "workers": 0 if scheduler else workers,
         "scheduler": scheduler or "local processes",

@@ -40,11 +40,13 @@ def signal_groups(names: list[str]) -> dict[str, np.ndarray]:
 
 def explained_variance(X: np.ndarray, X_hat: np.ndarray, names: list[str]) -> dict[str, float]:
     """Per signal group, ``1 - SSE / total variance`` of (K, I, T) signals about each signal's mean."""
+    return {g: _fraction_explained(X, X_hat, idx) for g, idx in signal_groups(names).items()}
+
+
+def _fraction_explained(X: np.ndarray, X_hat: np.ndarray, signals) -> float:
+    """``1 - SSE / total variance`` of the given signals of (K, I, T) arrays, each about its own mean."""
     centred = X - X.mean(axis=(0, 2), keepdims=True)
-    return {
-        g: float(1.0 - ((X - X_hat)[:, idx] ** 2).sum() / (centred[:, idx] ** 2).sum())
-        for g, idx in signal_groups(names).items()
-    }
+    return float(1.0 - ((X - X_hat)[:, signals] ** 2).sum() / (centred[:, signals] ** 2).sum())
 
 
 class PredictedStep:
@@ -83,9 +85,9 @@ class PredictedStep:
         return np.sqrt(self.weight_var @ second_moment + self.weights**2 @ self._primitive_var).T
 
     @property
-    def times(self) -> np.ndarray:
-        """Real time (s) of each grid point, from the step's start."""
-        return np.interp(self.tau, self.boundaries, np.concatenate([[0.0], np.cumsum(self.durations)]))
+    def phase_edges(self) -> np.ndarray:
+        """Real time (s) of the phase boundaries, from the step's start: ``boundaries`` in seconds."""
+        return np.concatenate([[0.0], np.cumsum(self.durations)])
 
     @property
     def duration(self) -> float:
@@ -118,7 +120,7 @@ class MovementPrimitives:
         """Learn primitives, weight GPs and duration GPs from training steps."""
         from cocomopl.primitives import optimise  # JAX is needed to fit only
 
-        self._validate(steps)
+        self.validate(steps)
         started = time.perf_counter()
         templates = phase_templates(steps)
         tau = np.linspace(0.0, 1.0, self.n_grid)
@@ -144,7 +146,8 @@ class MovementPrimitives:
         self.explained_variance_ = explained_variance(X, layout.from_slots(result["reconstruction"]), steps.signal_names)
         return self
 
-    def _validate(self, steps: TrainingSteps) -> None:
+    def validate(self, steps: TrainingSteps) -> None:
+        """Raise :class:`Error` if these settings cannot be fitted to ``steps``."""
         if not isinstance(self.n_primitives, (int, np.integer)) or self.n_primitives < 1:
             raise Error(f"the number of primitives must be a positive whole number, not {self.n_primitives!r}")
         from cocomopl.primitives.kernels import TIME_KERNELS
@@ -271,8 +274,7 @@ class MovementPrimitives:
     def score(self, steps: TrainingSteps) -> float:
         """Explained variance of all signals of ``steps`` (1 is perfect)."""
         X, X_hat = self.reconstruct(steps)
-        centred = X - X.mean(axis=(0, 2), keepdims=True)
-        return float(1.0 - ((X - X_hat) ** 2).sum() / (centred**2).sum())
+        return _fraction_explained(X, X_hat, slice(None))
 
 
 def _condition(w, var, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:

@@ -44,6 +44,8 @@ def select_model(
     Processes are spawned, not forked: a forked JAX runtime can hang.
     """
     candidates = [(s, k) for k in kernels for s in n_primitives]
+    for s, k in candidates:  # refuse impossible settings before any process starts
+        MovementPrimitives(s, k, max_iterations=max_iterations).validate(steps)
     models = []
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = [pool.submit(_fit, steps, s, k, max_iterations) for s, k in candidates]

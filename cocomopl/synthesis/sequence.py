@@ -9,9 +9,8 @@ from collections.abc import Sequence
 from cocomopl.dataset.plan import length_mm_to_m
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
+from cocomopl.ocp.problems import OTHER
 from cocomopl.primitives.model import MovementPrimitives, PredictedStep
-
-OTHER = {"left": "right", "right": "left"}
 
 
 class OutOfSupportWarning(UserWarning):

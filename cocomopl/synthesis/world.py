@@ -16,11 +16,9 @@ from scipy.interpolate import CubicSpline
 
 from cocomopl.dynamics import SIDES, inverse_dynamics_with_contacts
 from cocomopl.motion import Motion
-from cocomopl.ocp.problems import foot_separation
+from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
 from cocomopl.robot import Robot
-
-OTHER = {"left": "right", "right": "left"}
 
 
 def footsteps(robot: Robot, steps: list[PredictedStep]) -> list[dict]:
@@ -66,7 +64,7 @@ def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray
     (as they do physically) without the spline ringing; the touchdown time then appears
     twice, pre- and post-impact, as in every :class:`Motion`.
     """
-    edges = np.concatenate([[0.0], np.cumsum(step.durations)])
+    edges = step.phase_edges
     ts, values, phases = [], [], []
     for first, last in _segments(step):
         t0, t1 = edges[first], edges[last + 1]
@@ -97,7 +95,7 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
     Single support hangs on the stance sole; double support blends from the sole that
     carried the previous phase to the one that carries the next, so the pelvis never jumps.
     """
-    edges = np.concatenate([[0.0], np.cumsum(step.durations)])
+    edges = step.phase_edges
     plan = _phase_plan(step)
     # before the step the previous step's stance foot, this step's swing foot, carried the robot
     previous_air = None if first else OTHER[step.spec.swing_side]
