@@ -79,11 +79,15 @@ def inverse_dynamics_with_contacts(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Velocities, joint torques and contact wrenches that realise a kinematic motion.
 
-    Velocities and accelerations are forward differences within each impact-free segment
-    (the convention of :func:`finite_difference_accelerations`).  The floating base is
-    unactuated, so the contact wrenches must supply the base rows of inverse dynamics; in
-    double support the least-norm split between the soles is taken.  Torques and wrenches
-    hold over each interval; a segment's last sample repeats the one before.
+    Velocities are backward differences within each impact-free segment, ``q[k] = q[k-1] +
+    v[k] dt`` as in the symplectic Euler of the OC motions, and accelerations forward
+    differences of them (:func:`finite_difference_accelerations`).  So every interval up to
+    a touchdown has its real acceleration; the post-impact velocity is unknown from
+    positions alone and is taken equal to the next one (zero acceleration over the first
+    interval after a touchdown, in double support).  The floating base is unactuated, so
+    the contact wrenches must supply the base rows of inverse dynamics; in double support
+    the least-norm split between the soles is taken.  Torques and wrenches hold over each
+    interval; a segment's last sample repeats the one before.
 
     Returns
     -------
@@ -96,9 +100,9 @@ def inverse_dynamics_with_contacts(
     wrenches = np.zeros((n, 2, 6))
     bounds = np.concatenate([[-1], impacts, [n - 1]])
     for first, last in zip(bounds[:-1] + 1, bounds[1:]):
-        for k in range(first, last):
-            v[k] = pin.difference(model, q[k], q[k + 1]) / (t[k + 1] - t[k])
-        v[last] = v[last - 1]
+        for k in range(first + 1, last + 1):
+            v[k] = pin.difference(model, q[k - 1], q[k]) / (t[k] - t[k - 1])
+        v[first] = v[first + 1]
         for k in range(first, last):
             a = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
             rhs = pin.rnea(model, data, q[k], v[k], a)

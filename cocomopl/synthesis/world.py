@@ -19,6 +19,7 @@ from cocomopl.motion import Motion
 from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
 from cocomopl.robot import Robot
+from cocomopl.synthesis.dynamics_filter import dynamics_filter
 
 
 def footsteps(robot: Robot, steps: list[PredictedStep]) -> list[dict]:
@@ -58,7 +59,7 @@ def _segments(step: PredictedStep) -> list[tuple[int, int]]:
 
 
 def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Real times, signals and phase index of a step sampled every ``dt``.
+    """Real times, signals and phase index of a step sampled at most ``dt`` apart.
 
     Each impact-free part gets its own cubic spline, so velocities may jump at a touchdown
     (as they do physically) without the spline ringing; the touchdown time then appears
@@ -73,9 +74,9 @@ def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray
         knots = np.concatenate([[b0], step.tau[inside], [b1]])
         ends = [np.array([np.interp(b, step.tau, x) for x in step.values.T]) for b in (b0, b1)]
         spline = CubicSpline(knots, np.vstack([ends[0], step.values[inside], ends[1]]), axis=0)
+        # evenly spaced, at most dt apart: a short last interval would blow up finite differences
         n = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
-        t = np.minimum(t0 + np.arange(n + 1) * dt, t1)
-        t[-1] = t1  # exactly: the next part starts at the same instant
+        t = np.linspace(t0, t1, n + 1)
         ts.append(t)
         values.append(spline(np.interp(t, edges, step.boundaries)))
         phases.append(np.clip(np.searchsorted(edges, t, side="right") - 1, first, last))
@@ -123,7 +124,7 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     model, data = robot.model, robot.model.createData()
     n_joints = len(robot.joint_names)
     feet_per_step = footsteps(robot, steps)
-    ts, qs, zmps, contacts, phases, starts, impacts = [], [], [], [], [], [], []
+    ts, qs, zmps, contacts, phases, starts, impacts, ground = [], [], [], [], [], [], [], []
     offset, count = 0.0, 0
     for k, (step, feet) in enumerate(zip(steps, feet_per_step)):
         t, values, phase = _sample_step(step, dt)
@@ -148,6 +149,10 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
             q[j, 3:7] = pin.Quaternion(R).coeffs()
             zmp[j] = position + R @ zmp_local[j]
         contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
+        ground += [
+            [pin.SE3(np.eye(3), _ground_position(feet, plan, side, p)) if c else None for side, c in zip(SIDES, row)]
+            for p, row in zip(phase, contact)
+        ]
         for p in range(len(plan)):
             rows = np.flatnonzero(phase == p)
             phases.append((plan[p][0], count + int(rows[0]), count + int(rows[-1]) + (plan[p][0] == "ds" and p + 1 < len(plan))))
@@ -160,8 +165,10 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
         offset += t[-1]
         count += len(t)
         impacts.append(count - 1)
-    t, q, contact = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts)
-    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, np.array(impacts[:-1]))
+    t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
+    impacts = np.array(impacts[:-1], dtype=int)
+    q, filter_errors = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
+    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
     return Motion(
         t=t,
         q=q,
@@ -169,13 +176,13 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
         tau=tau,
         wrenches=wrenches,
         contact=contact,
-        zmp=np.concatenate(zmps),
+        zmp=zmp,
         phases=phases,
-        impacts=np.array(impacts[:-1], dtype=int),
+        impacts=impacts,
         steps=[s.spec for s in steps],
         step_starts=np.array(starts, dtype=int),
         joint_names=list(robot.joint_names),
         robot=robot.name,
-        meta={"producer": "primitives"},
+        meta={"producer": "primitives", "dynamics_filter_zmp_error_m": filter_errors},
     )
 
