@@ -244,35 +244,20 @@ def cmd_model_info(args) -> int:
 
 
 def cmd_generate(args) -> int:
-    import time
-    import warnings
-
     from cocomopl.motion_file import writable_folder, write_motions
-    from cocomopl.primitives.model_file import load_model
-    from cocomopl.robot import Robot
-    from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
-    from cocomopl.synthesis.world import place_steps
+    from cocomopl.pipeline import generate_walk
+    from cocomopl.synthesis.sequence import parse_sequence_mm
 
     lengths = parse_sequence_mm(args.lengths_mm)
     out = Path(args.out)
     if out.is_dir():
         raise Error(f"--out {out} is a directory; give a file path such as {out / 'motion.h5'}")
     writable_folder(out.parent, f"the folder of --out {out}")
-    model = load_model(_model_path(args.model)).prepare()  # loading ends here; generation is timed below
-    robot = Robot(model.metadata_.get("robot", "talos"))
-    specs = sequence_specs(lengths, args.first_swing)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", OutOfSupportWarning)
-        started = time.perf_counter()
-        steps = generate_steps(model, specs, strict=args.strict)
-        generation_s = time.perf_counter() - started
-    for w in caught:
-        print(f"cocomopl: warning: {w.message}", file=sys.stderr)
-    started = time.perf_counter()
-    motion = place_steps(robot, steps, args.dt)
-    placement_s = time.perf_counter() - started
-    motion.meta.update({"model": str(_model_path(args.model)), "lengths_mm": [1000 * x for x in lengths]})
-    write_motions(out, {motion.name: motion}, {"robot": robot.name, "producer": "primitives"})
+    walk = generate_walk(lengths, _model_path(args.model), args.dt, args.first_swing, args.strict)
+    for message in walk.warnings:
+        print(f"cocomopl: warning: {message}", file=sys.stderr)
+    motion, steps, generation_s, placement_s = walk.motion, walk.steps, walk.generation_s, walk.placement_s
+    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": "primitives"})
     rows = [{
         "step": s.spec.name, "duration_s": s.duration, "duration_std_s": float(np.linalg.norm(s.duration_std)),
         "joint_std_max_rad": float(s.std[:, :30].max()), "in_support": bool(s.in_support),

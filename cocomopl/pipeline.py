@@ -1,0 +1,62 @@
+"""The stages chained: step lengths -> generated walk (-> simulated walk -> report).
+
+The CLI commands ``generate``, ``walk`` and ``reproduce`` are thin shells around these
+functions, so scripts get the same results as the command line.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cocomopl.motion import Motion
+from cocomopl.primitives.model import PredictedStep
+from cocomopl.primitives.model_file import load_model
+from cocomopl.robot import Robot
+from cocomopl.synthesis.sequence import (
+    OutOfSupportWarning,
+    generate_steps,
+    sequence_specs,
+)
+from cocomopl.synthesis.world import place_steps
+
+
+@dataclass
+class GeneratedWalk:
+    """A walk from the primitives, with what it cost to make."""
+
+    robot: Robot
+    motion: Motion
+    steps: list[PredictedStep]
+    generation_s: float  # the primitives alone, after loading
+    placement_s: float  # world placement, dynamics filter and inverse dynamics
+    warnings: list[str] = field(default_factory=list)
+
+
+def generate_walk(
+    lengths: list[float],
+    model_path: str | Path,
+    dt: float = 0.025,
+    first_swing: str = "left",
+    strict: bool = False,
+) -> GeneratedWalk:
+    """Generate and place a walk of step lengths ``lengths`` (m): start, ..., stop.
+
+    Steps outside the training support are warned about (``warnings``), or refused with
+    ``strict``.
+    """
+    model = load_model(model_path).prepare()
+    robot = Robot(model.metadata_.get("robot", "talos"))
+    specs = sequence_specs(lengths, first_swing)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", OutOfSupportWarning)
+        started = time.perf_counter()
+        steps = generate_steps(model, specs, strict=strict)
+        generation_s = time.perf_counter() - started
+    started = time.perf_counter()
+    motion = place_steps(robot, steps, dt)
+    placement_s = time.perf_counter() - started
+    motion.meta.update({"model": str(model_path), "lengths_mm": [1000 * x for x in lengths]})
+    return GeneratedWalk(robot, motion, steps, generation_s, placement_s, [str(w.message) for w in caught])
