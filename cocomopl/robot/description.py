@@ -66,8 +66,10 @@ def read_description(name_or_path: str) -> dict:
     return desc
 
 
-def _load_full_model(desc: dict) -> tuple[pin.Model, np.ndarray | None]:
-    """The unreduced model and the reference posture named by the description, if any."""
+def _load_full_model(desc: dict, visuals: bool = False):
+    """The unreduced model and the reference posture named by the description, if any;
+    with ``visuals``, also the URDF's visual geometry model."""
+    visual = None
     if "example_robot_data" in desc:
         import example_robot_data
 
@@ -75,13 +77,15 @@ def _load_full_model(desc: dict) -> tuple[pin.Model, np.ndarray | None]:
             wrapper = example_robot_data.load(desc["example_robot_data"])
         except Exception as exc:  # the loader raises bare ValueError/KeyError for unknown names
             raise Error(f"example-robot-data cannot load {desc['example_robot_data']!r}: {exc}") from None
-        model = wrapper.model
+        model, visual = wrapper.model, wrapper.visual_model
     elif "urdf" in desc:
         urdf = Path(desc["urdf"])
         if not urdf.exists():
             raise Error(f"URDF not found: {urdf}")
         try:
             model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+            if visuals:
+                visual = pin.buildGeomFromUrdf(model, str(urdf), pin.GeometryType.VISUAL, [str(urdf.parent)])
         except (RuntimeError, ValueError) as exc:
             raise Error(f"cannot parse URDF {urdf}: {exc}") from None
         if "srdf" in desc:
@@ -95,6 +99,8 @@ def _load_full_model(desc: dict) -> tuple[pin.Model, np.ndarray | None]:
             q_ref = np.array(model.referenceConfigurations[posture_name])
         except (KeyError, IndexError):
             raise Error(f"robot {desc['name']!r} has no reference posture {posture_name!r}") from None
+    if visuals:
+        return model, q_ref, visual
     return model, q_ref
 
 
@@ -263,6 +269,17 @@ class Robot:
         for jid, inertia in enumerate(averaged, 1):
             model.inertias[jid] = inertia
         return change
+
+    def visual_model(self) -> pin.GeometryModel:
+        """The URDF's visual meshes, attached to the joints of the reduced model."""
+        full, q_full_ref, visual = _load_full_model(self.description, visuals=True)
+        if q_full_ref is None:
+            q_full_ref = pin.neutral(full)
+        locked = _locked_joint_ids(full, self.description)
+        if not locked:
+            return visual
+        _, reduced = pin.buildReducedModel(full, visual, locked, q_full_ref)
+        return reduced
 
     # ------------------------------------------------------------------ conveniences
     def leg_joint_indices(self) -> list[int]:

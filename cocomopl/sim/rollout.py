@@ -1,0 +1,178 @@
+"""Run a motion in MuJoCo as a position-controlled robot would, and measure what happens.
+
+The reference joint angles go, interpolated to the 1 kHz loop, to the joint position
+servos; the stabilizer (:mod:`cocomopl.sim.stabilizer`) may add small corrections.  The
+robot first stands for ``settle`` seconds in the motion's first posture, as a real robot
+does before it is told to walk.  What comes out is a :class:`Motion` of the same schema:
+measured configurations, velocities, servo torques, contact wrenches of each sole (summed
+over its contact points, about the sole frame origin), contact flags and the ZMP of those
+wrenches.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from cocomopl.dynamics import SIDES, zmp_from_wrenches
+from cocomopl.motion import Motion
+from cocomopl.sim.model import SimModel
+from cocomopl.sim.stabilizer import Stabilizer
+
+RECORD_DT = 0.005  # s between recorded samples
+SETTLE_S = 0.5  # s standing before the motion starts
+CONTACT_FORCE = 1.0  # N: a sole with less than this is in the air
+# fall: the pelvis below this fraction of its starting height, or the trunk tilted this much
+FALL_HEIGHT_RATIO = 0.6
+FALL_TILT = np.radians(45.0)
+
+
+@dataclass
+class Rollout:
+    """A simulated motion: what was measured, and the MuJoCo states for rendering."""
+
+    measured: Motion
+    qpos: np.ndarray  # (n, mj.nq) at the measured samples
+    fell: bool
+    fall_time: float | None
+
+
+def _reference_joints(motion: Motion):
+    """Joint angles of ``motion`` at any time (linear between its knots, held at the ends)."""
+    keep = motion.kept_samples()
+    t, q = motion.t[keep], motion.q[keep, 7:]
+
+    def at(time: float) -> np.ndarray:
+        k = int(np.clip(np.searchsorted(t, time, side="right") - 1, 0, len(t) - 2))
+        s = np.clip((time - t[k]) / (t[k + 1] - t[k]), 0.0, 1.0)
+        return (1 - s) * q[k] + s * q[k + 1]
+
+    return at
+
+
+def _sole_wrenches(sim: SimModel, data: mujoco.MjData) -> np.ndarray:
+    """Contact wrench (2, 6) on each sole from the floor: world axes, about the sole frame."""
+    out = np.zeros((2, 6))
+    force = np.zeros(6)
+    for i in range(data.ncon):
+        contact = data.contact[i]
+        for j, side in enumerate(SIDES):
+            geom = sim.sole_geoms[side]
+            if geom not in (contact.geom1, contact.geom2):
+                continue
+            mujoco.mj_contactForce(sim.mj, data, i, force)
+            # contact-frame force, normal from geom1 to geom2: on geom2 as is, on geom1 reversed
+            f = contact.frame.reshape(3, 3).T @ force[:3] * (1.0 if contact.geom2 == geom else -1.0)
+            arm = contact.pos - data.site_xpos[sim.sole_sites[side]]
+            out[j, :3] += f
+            out[j, 3:] += np.cross(arm, f)
+    return out
+
+
+def _placed_on_floor(sim: SimModel, data: mujoco.MjData, q0: np.ndarray) -> None:
+    """Set the state to ``q0`` at rest, lowered so that the lowest sole touches the floor."""
+    data.qpos[:] = sim.qpos(q0)
+    data.qvel[:] = 0.0
+    mujoco.mj_kinematics(sim.mj, data)
+    data.qpos[2] -= min(data.site_xpos[sim.sole_sites[s]][2] for s in SIDES)
+    mujoco.mj_forward(sim.mj, data)
+
+
+def _tilt(quat_wxyz: np.ndarray) -> float:
+    """Angle between the base's z axis and the vertical."""
+    w, x, y, z = quat_wxyz
+    return float(np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0)))
+
+
+def simulate(
+    sim: SimModel,
+    motion: Motion,
+    stabilizer: bool = True,
+    settle: float = SETTLE_S,
+    record_dt: float = RECORD_DT,
+    progress: bool = False,
+) -> Rollout:
+    """Play ``motion`` on the simulated robot with joint position control.
+
+    Parameters
+    ----------
+    sim : the compiled model (:func:`cocomopl.sim.model.build_sim_model`)
+    motion : the reference, world frame, starting at rest on the floor
+    stabilizer : add the stabilizer's corrections to the commanded joint angles
+    settle : seconds standing in the first posture before the motion starts
+    record_dt : seconds between recorded samples
+
+    Returns
+    -------
+    Rollout with the measured :class:`Motion` (time 0 = the reference's first sample)
+    """
+    model, robot = sim.mj, sim.robot
+    data = mujoco.MjData(model)
+    reference = _reference_joints(motion)
+    t0 = float(motion.t[0])
+    _placed_on_floor(sim, data, motion.q[0])
+    control = Stabilizer(sim, motion) if stabilizer else None
+    every = max(int(round(record_dt / model.opt.timestep)), 1)
+    n_settle = int(round(settle / model.opt.timestep))
+    n_total = n_settle + int(np.ceil(motion.duration / model.opt.timestep))
+    start_height = float(data.qpos[2])
+    rows: dict[str, list] = {k: [] for k in ("t", "q", "v", "tau", "wrenches", "qpos")}
+    fell, fall_time = False, None
+    for i in tqdm(range(n_total + 1), desc="simulating", unit="ms", disable=not progress, leave=False):
+        time = t0 + (i - n_settle) * model.opt.timestep
+        command = reference(max(time, t0))
+        if control is not None:
+            command = command + control.correction(data, max(time, t0), moving=i >= n_settle)
+        data.ctrl[:] = command
+        if i >= n_settle and (i - n_settle) % every == 0:
+            rows["t"].append(time - t0)
+            rows["q"].append(sim.q(data.qpos))
+            rows["v"].append(sim.v(data.qpos, data.qvel))
+            rows["tau"].append(data.actuator_force.copy())
+            rows["wrenches"].append(_sole_wrenches(sim, data))
+            rows["qpos"].append(data.qpos.copy())
+        if data.qpos[2] < FALL_HEIGHT_RATIO * start_height or _tilt(data.qpos[3:7]) > FALL_TILT:
+            fell, fall_time = True, max(time - t0, 0.0)
+            break
+        mujoco.mj_step(model, data)
+    return Rollout(_measured_motion(sim, motion, rows, stabilizer, fell, fall_time), np.array(rows["qpos"]), fell, fall_time)
+
+
+def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: bool, fell: bool, fall_time) -> Motion:
+    t = np.array(rows["t"])
+    q = np.array(rows["q"])
+    wrenches = np.array(rows["wrenches"])
+    soles = np.zeros((len(t), 2, 3))
+    data = mujoco.MjData(sim.mj)
+    for k, qpos in enumerate(rows["qpos"]):
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(sim.mj, data)
+        soles[k] = [data.site_xpos[sim.sole_sites[s]] for s in SIDES]
+    contact = wrenches[..., 2] > CONTACT_FORCE
+    starts = np.searchsorted(t, reference.t[reference.step_starts] - reference.t[0])
+    return Motion(
+        t=t,
+        q=q,
+        v=np.array(rows["v"]),
+        tau=np.array(rows["tau"]),
+        wrenches=wrenches,
+        contact=contact,
+        zmp=zmp_from_wrenches(soles, wrenches),
+        phases=[],
+        impacts=np.zeros(0, dtype=int),
+        steps=list(reference.steps),
+        step_starts=np.minimum(starts, max(len(t) - 1, 0)).astype(int),
+        joint_names=list(reference.joint_names),
+        robot=reference.robot,
+        meta={
+            "producer": "mujoco",
+            "reference_producer": reference.meta.get("producer", "unknown"),
+            "stabilizer": stabilizer,
+            "fell": fell,
+            "fall_time_s": fall_time,
+            "timestep_s": float(sim.mj.opt.timestep),
+        },
+    )

@@ -1,0 +1,105 @@
+"""The MuJoCo model agrees with the Pinocchio model, and position-controlled rollouts behave."""
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cocomopl.motion import Motion
+from cocomopl.motion_file import read_motion, write_motions
+from cocomopl.ocp.posture import double_support_posture
+from cocomopl.ocp.problems import foot_separation
+from cocomopl.sim.model import build_sim_model
+from cocomopl.sim.rollout import simulate
+
+DATASET = "cocomopl/data/dataset.h5"
+
+
+@pytest.fixture(scope="module")
+def sim(robot):
+    return build_sim_model(robot, visuals=False)
+
+
+def _random_configuration(robot, rng):
+    q = pin.randomConfiguration(robot.model, np.r_[-np.ones(7), robot.q_lower], np.r_[np.ones(7), robot.q_upper])
+    q[3:7] = rng.normal(size=4)
+    q[3:7] /= np.linalg.norm(q[3:7])
+    return q
+
+
+def test_mass_matrix_com_and_soles_agree_with_pinocchio(robot, sim):
+    rng = np.random.default_rng(0)
+    data, mj_data = robot.model.createData(), mujoco.MjData(sim.mj)
+    assert sum(sim.mj.body_mass) == pytest.approx(robot.mass, rel=1e-12)
+    for _ in range(3):
+        q = _random_configuration(robot, rng)
+        mj_data.qpos[:] = sim.qpos(q)
+        mujoco.mj_forward(sim.mj, mj_data)
+        M_mj = np.zeros((sim.mj.nv, sim.mj.nv))
+        mujoco.mj_fullM(sim.mj, mj_data, M_mj)
+        M = pin.crba(robot.model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        # MuJoCo's free-joint linear velocity is in the world frame, Pinocchio's in the base frame
+        T = np.eye(sim.mj.nv)
+        T[:3, :3] = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+        T_inv = np.linalg.inv(T)
+        assert np.abs(M_mj - T_inv.T @ M @ T_inv).max() < 1e-6 * np.abs(M).max()  # masses, inertias, armature
+        pin.framesForwardKinematics(robot.model, data, q)
+        for side in ("left", "right"):
+            assert np.allclose(mj_data.site_xpos[sim.sole_sites[side]], data.oMf[robot.foot_frames[side]].translation, atol=1e-9)
+        assert np.allclose(mj_data.subtree_com[sim.base_body], pin.centerOfMass(robot.model, data, q), atol=1e-9)
+
+
+def test_limits_and_armature_agree_with_the_urdf(robot, sim):
+    joints = range(1, sim.mj.njnt)  # joint 0 is the free joint
+    assert np.allclose([sim.mj.jnt_range[j] for j in joints], np.stack([robot.q_lower, robot.q_upper], 1))
+    assert np.allclose(sim.mj.actuator_forcerange, np.stack([-robot.tau_max, robot.tau_max], 1))
+    assert np.allclose(sim.mj.dof_armature[6:], robot.model.armature[6:])
+    assert sim.mj.opt.timestep == pytest.approx(0.001)
+
+
+def test_state_conversions_round_trip(robot, sim):
+    rng = np.random.default_rng(1)
+    q = _random_configuration(robot, rng)
+    v = rng.normal(size=robot.model.nv)
+    assert np.allclose(sim.q(sim.qpos(q)), q)
+    assert np.allclose(sim.v(sim.qpos(q), sim.qvel(q, v)), v)
+
+
+def _standing(robot, seconds: float) -> Motion:
+    y = foot_separation(robot)
+    q = double_support_posture(robot, (0.0, y / 2), (0.0, -y / 2))
+    n = 2
+    return Motion(
+        t=np.array([0.0, seconds]), q=np.stack([q] * n), v=np.zeros((n, robot.model.nv)), tau=np.zeros((n, robot.nu)),
+        wrenches=np.zeros((n, 2, 6)), contact=np.ones((n, 2), bool), zmp=np.zeros((n, 3)), phases=[("ds", 0, 1)],
+        impacts=np.zeros(0, int), steps=[], step_starts=np.zeros(0, int), joint_names=list(robot.joint_names),
+        robot=robot.name, meta={"producer": "test"},
+    )
+
+
+@pytest.mark.parametrize("stabilizer", [True, False])
+def test_standing_robot_carries_its_weight_on_its_soles(robot, sim, stabilizer):
+    rollout = simulate(sim, _standing(robot, 0.5), stabilizer=stabilizer)
+    assert not rollout.fell
+    weight = robot.mass * 9.81
+    total = rollout.measured.wrenches[..., 2].sum(axis=1)
+    assert np.abs(total[-20:] / weight - 1).max() < 0.02  # at rest the floor carries exactly the weight
+    assert rollout.measured.contact[-1].all()
+    # and the ZMP of the measured wrenches lies between the feet
+    zmp = rollout.measured.zmp[-1]
+    assert abs(zmp[1]) < foot_separation(robot) / 2
+
+
+def test_an_oc_step_walks_and_its_measurement_round_trips(robot, sim, tmp_path):
+    reference = read_motion(DATASET, "start_250_L")
+    rollout = simulate(sim, reference, stabilizer=True)
+    assert not rollout.fell
+    measured = rollout.measured
+    assert measured.t[-1] == pytest.approx(reference.duration, abs=0.01)
+    assert measured.meta["producer"] == "mujoco" and measured.meta["stabilizer"] is True
+    # the left foot stepped about 250 mm forward (the start step's length)
+    assert measured.q[-1, 0] - measured.q[0, 0] == pytest.approx(reference.q[-1, 0] - reference.q[0, 0], abs=0.05)
+    write_motions(tmp_path / "m.h5", {"sim": measured}, {"robot": robot.name})
+    back = read_motion(tmp_path / "m.h5")
+    assert np.array_equal(back.q, measured.q) and np.array_equal(back.wrenches, measured.wrenches)
