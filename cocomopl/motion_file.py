@@ -48,10 +48,12 @@ def writable_folder(folder: Path, purpose: str) -> Path:
 
 
 @contextmanager
-def atomic_path(path: Path):
-    """Yield a temporary path beside ``path`` that replaces it only if the block succeeds."""
+def atomic_path(path: Path, suffix: str = ".tmp"):
+    """Yield a temporary path beside ``path`` that replaces it only if the block succeeds.
+
+    ``suffix`` ends the temporary name, for writers that choose their format by it."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
     os.close(fd)
     umask = os.umask(0)
     os.umask(umask)

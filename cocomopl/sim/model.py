@@ -144,14 +144,14 @@ def mjcf(robot: Robot, visuals: bool = True) -> str:
     return f"""<mujoco model="{robot.name}">
 <compiler angle="radian" autolimits="true" boundmass="0" boundinertia="0"/>
 <option timestep="{TIMESTEP}" integrator="implicitfast"/>
-<visual><global offwidth="1280" offheight="720"/><quality shadowsize="2048"/></visual>
+<visual><global offwidth="1280" offheight="720"/><headlight ambient="0.4 0.4 0.4" diffuse="0.5 0.5 0.5"/></visual>
 <default>
   <default class="sole"><geom contype="1" conaffinity="1" condim="3" friction="{FRICTION} 0.005 0.0001"
     solref="{CONTACT_SOLREF}" rgba="0.2 0.2 0.2 1"/></default>
-  <default class="visual"><geom contype="0" conaffinity="0" group="1" mass="0" rgba="0.75 0.75 0.78 1"/></default>
+  <default class="visual"><geom contype="0" conaffinity="0" group="1" mass="0" rgba="0.55 0.6 0.7 1"/></default>
 </default>
 <asset>
-  <texture name="grid" type="2d" builtin="checker" rgb1="0.85 0.85 0.85" rgb2="0.7 0.7 0.7" width="512" height="512"/>
+  <texture name="grid" type="2d" builtin="checker" rgb1="0.9 0.9 0.9" rgb2="0.75 0.75 0.78" width="512" height="512"/>
   <material name="grid" texture="grid" texrepeat="8 8" reflectance="0.1"/>
   {chr(10).join(meshes.values())}
 </asset>
