@@ -288,6 +288,48 @@ def cmd_plot(args) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- simulation
+METRIC_ROWS = (
+    ("fell", "fell", "{}"),
+    ("peak_force_over_weight", "peak vertical force / weight", "{:.2f}"),
+    ("max_force_rate", "max vertical force rate (N/s)", "{:.0f}"),
+    ("mean_torque", "mean torque (paper's Table I, N m)", "{:.4f}"),
+    ("zmp_rms_error", "ZMP RMS error vs reference (m)", "{:.4f}"),
+    ("tracking_rms_rad", "joint tracking RMS (rad)", "{:.4f}"),
+    ("foot_slip_m", "foot slip (m)", "{:.4f}"),
+    ("duration_s", "duration (s)", "{:.2f}"),
+)
+
+
+def _metrics_table(metrics: dict) -> str:
+    return "\n".join(f"{label:36s} {fmt.format(metrics[key])}" for key, label, fmt in METRIC_ROWS if key in metrics)
+
+
+def _output_file(path: str, default: Path) -> Path:
+    out = Path(path) if path else default
+    if out.is_dir():
+        raise Error(f"--out {out} is a directory; give a file path such as {out / 'motion.h5'}")
+    from cocomopl.motion_file import writable_folder
+
+    writable_folder(out.parent, f"the folder of --out {out}")
+    return out
+
+
+def cmd_simulate(args) -> int:
+    from cocomopl.motion_file import read_motion, write_motions
+    from cocomopl.pipeline import simulate_walk
+    from cocomopl.robot import Robot
+
+    reference = read_motion(args.file, args.motion)
+    out = _output_file(args.out, Path(f"{Path(args.file).stem}-sim.h5"))
+    robot = Robot(reference.robot)
+    rollout, metrics = simulate_walk(robot, reference, stabilizer=not args.no_stabilizer, progress=not args.json)
+    write_motions(out, {"measured": rollout.measured}, {"robot": robot.name, "producer": "mujoco"})
+    payload = {"output": str(out), "stabilizer": not args.no_stabilizer, **metrics}
+    _emit(args, payload, _metrics_table(metrics) + f"\nwrote {out}")
+    return 1 if rollout.fell else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from cocomopl import __version__
 
@@ -356,6 +398,14 @@ def build_parser() -> argparse.ArgumentParser:
     gen_walk.add_argument("--strict", action="store_true", help="refuse steps outside the training support")
     gen_walk.add_argument("--json", action="store_true", help="print one JSON object")
     gen_walk.set_defaults(func=cmd_generate)
+
+    simulate = sub.add_parser("simulate", help="run a motion in MuJoCo with joint position control and measure it")
+    simulate.add_argument("file", help="motion HDF5 (e.g. from 'cocomopl generate')")
+    simulate.add_argument("--motion", help="motion name (needed when the file holds several)")
+    simulate.add_argument("--out", help="measured motion HDF5 (default: <file>-sim.h5)")
+    simulate.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    simulate.add_argument("--json", action="store_true", help="print one JSON object")
+    simulate.set_defaults(func=cmd_simulate)
 
     plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
     plot.add_argument("file")

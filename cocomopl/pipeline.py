@@ -60,3 +60,20 @@ def generate_walk(
     placement_s = time.perf_counter() - started
     motion.meta.update({"model": str(model_path), "lengths_mm": [1000 * x for x in lengths]})
     return GeneratedWalk(robot, motion, steps, generation_s, placement_s, [str(w.message) for w in caught])
+
+
+def simulate_walk(robot: Robot, motion: Motion, stabilizer: bool = True, video: Path | None = None, progress: bool = False):
+    """Simulate ``motion`` in MuJoCo; with ``video``, also render it there (MP4).
+
+    Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
+    """
+    from cocomopl.analysis.metrics import summary
+    from cocomopl.sim.model import build_sim_model
+    from cocomopl.sim.rollout import simulate
+    from cocomopl.sim.video import render_video
+
+    sim = build_sim_model(robot, visuals=video is not None)
+    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress)
+    if video is not None:
+        render_video(sim, rollout.measured.t, rollout.qpos, video)
+    return rollout, summary(robot, rollout.measured, motion)

@@ -128,7 +128,7 @@ def test_bad_sequences_are_refused(text, words):
 
 
 def test_out_of_support_warns_and_strict_refuses(model):
-    far = sequence_specs([0.25, 0.6, 0.25])
+    far = sequence_specs([0.25, 0.6, 0.6])
     with pytest.warns(OutOfSupportWarning, match="mm from the nearest training step"):
         generate_steps(model, far)
     with pytest.raises(Error, match="--strict"):
@@ -145,17 +145,23 @@ def test_unknown_step_type_is_an_error(steps):
         only_cyclic.predict(StepSpec("start", 0.0, 0.25, "left"))
 
 
-def test_placed_walk_is_a_consistent_motion(model, robot):
+def test_placed_walk_is_a_consistent_motion(robot):
     from cocomopl.analysis.feasibility import check_motion
+    from cocomopl.cli import BUNDLED_MODEL
     from cocomopl.dynamics import sole_placements
+    from cocomopl.primitives.model_file import load_model
     from cocomopl.synthesis.world import place_steps
 
+    # the bundled model: the tiny test model's steps do not all fit the legs' reach
+    model = load_model(BUNDLED_MODEL)
     motion = place_steps(robot, generate_steps(model, sequence_specs([0.25, 0.25, 0.25])), dt=0.025)
     assert motion.q.shape[1] == robot.model.nq and motion.tau.shape[1] == len(robot.joint_names)
     # 2 junctions, and the stop's two touchdowns (its step, then the other foot closing up)
     assert np.all(np.diff(motion.t) >= 0) and len(motion.impacts) == 4
     report = check_motion(robot, motion, 0.7)
     assert report["inverse_dynamics_residual"] < 1e-6  # torques and wrenches realise the kinematics
+    # the dynamics filter: the full-model ZMP stays in the support polygon, friction suffices
+    assert report["zmp_margin"] > 0 and report["friction_ratio"] < 1
     soles = sole_placements(robot, motion.q)
     for kind, first, last in motion.phases:  # the stance sole hangs still in single support
         if kind == "ss":
@@ -169,10 +175,10 @@ def test_generate_cli_json_and_motion_file(model_file, tmp_path):
     from cocomopl.motion_file import read_motion
 
     out = tmp_path / "walk.h5"
-    result = run_cli("generate", "--model", str(model_file), "--lengths-mm", "150,250,250,150", "--out", str(out), "--json")
+    result = run_cli("generate", "--model", str(model_file), "--lengths-mm", "150,250,250,250", "--out", str(out), "--json")
     assert result.returncode == 0, result.stderr
     payload = json.loads(result.stdout)
-    assert [s["step"] for s in payload["steps"]] == ["start_150_L", "transition_150_250_R", "cyclic_250_L", "stop_150_R"]
+    assert [s["step"] for s in payload["steps"]] == ["start_150_L", "transition_150_250_R", "cyclic_250_L", "stop_250_R"]
     assert 0 < payload["generation_s"] < 1.0
     motion = read_motion(out)
     assert [s.name for s in motion.steps] == [s["step"] for s in payload["steps"]]
@@ -180,9 +186,9 @@ def test_generate_cli_json_and_motion_file(model_file, tmp_path):
 
 def test_generate_cli_strict_and_bad_input(model_file, tmp_path):
     out = tmp_path / "walk.h5"
-    strict = run_cli("generate", "--model", str(model_file), "--lengths-mm", "250,600,250", "--out", str(out), "--strict")
+    strict = run_cli("generate", "--model", str(model_file), "--lengths-mm", "250,600,600", "--out", str(out), "--strict")
     assert_one_line_error(strict, "refused (--strict)")
-    for text, word in (("150", "at least two"), ("150,-1", "positive"), ("x,150", "not a number")):
+    for text, word in (("150", "at least two"), ("150,-1", "positive"), ("x,150", "not a number"), ("150,250", "must repeat")):
         assert_one_line_error(run_cli("generate", "--model", str(model_file), "--lengths-mm", text, "--out", str(out)), word)
     assert not out.exists()
     blocker = tmp_path / "a-file"

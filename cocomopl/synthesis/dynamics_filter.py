@@ -33,13 +33,15 @@ from cocomopl.dynamics import (
 from cocomopl.robot import Robot
 
 GRAVITY = 9.81
-PASSES = 4
+PASSES = 6
+RELAXATION = 0.5  # fraction of the cart-table correction applied per pass: a full step overshoots
 # relative weight of the correction's size and of the rest conditions at both ends: small
 # enough that the ZMP error dominates, large enough to pick the bounded cart-table solution
 SIZE_WEIGHT = 1e-3
 REST_WEIGHT = 1e3
 IK_ITERATIONS = 20
-IK_TOLERANCE = 1e-7  # m and rad of sole error
+IK_TOLERANCE = 1e-7
+IK_REACHED = 1e-5  # m: a sole this close to its footstep is on it  # m and rad of sole error
 IK_DAMPING = 1e-8
 # m of sole error traded for 1 m of pelvis height change: the height moves only when it must
 HEIGHT_WEIGHT = 1e-2
@@ -152,6 +154,15 @@ def zmp_correction(t: np.ndarray, error: np.ndarray, height: float) -> np.ndarra
     return out
 
 
+def _stance_error(robot: Robot, q: np.ndarray, ground: list[list[pin.SE3 | None]]) -> float:
+    """Largest distance (m) of a sole in contact from its planned ground position."""
+    soles = sole_placements(robot, q)
+    return max(
+        (float(np.linalg.norm(soles[k, j] - g.translation)) for k, row in enumerate(ground) for j, g in enumerate(row) if g is not None),
+        default=0.0,
+    )
+
+
 def multibody_zmp(robot: Robot, t, q, contact, impacts) -> np.ndarray:
     """ZMP (n, 3) of the contact wrenches that inverse dynamics needs for the motion."""
     _, _, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
@@ -180,7 +191,8 @@ def dynamics_filter(
     -------
     q : the corrected configurations (soles exactly on ``ground`` while in contact)
     errors : the RMS horizontal ZMP error (m) before each pass and after the last; the pass
-        with the smallest is returned (the iteration need not decrease monotonically)
+        with the smallest is returned (the iteration need not decrease monotonically), among
+        those whose soles in contact reach their footsteps if any do
     """
     model, data = robot.model, robot.model.createData()
     legs = leg_joints(robot)
@@ -198,9 +210,11 @@ def dynamics_filter(
         error = multibody_zmp(robot, t, q_pass, contact, impacts)[:, :2] - zmp_ref[:, :2]
         # pre-impact samples repeat their interval's wrench: they are not ZMP samples
         errors.append(float(np.sqrt(np.nanmean(error[keep] ** 2))))
-        if best is None or errors[-1] < errors[best[0]]:
-            best = (i, q_pass)
+        # a pass whose shift put a planned footstep out of the legs' reach is not a candidate
+        score = (_stance_error(robot, q_pass, ground) > IK_REACHED, errors[-1])
+        if best is None or score < best[0]:
+            best = (score, q_pass)
         if i < passes:
-            shift[keep] += zmp_correction(t[keep], error[keep], height)
+            shift[keep] += RELAXATION * zmp_correction(t[keep], error[keep], height)
             shift[~keep] = shift[np.flatnonzero(~keep) + 1]
     return best[1], errors

@@ -21,7 +21,9 @@ def sequence_specs(lengths: Sequence[float], first_swing: str = "left") -> list[
     """Step specs for step lengths (m): a start, then cyclic or transition steps, then a stop.
 
     The first length is the start step's, the last the stop's; in between, a step whose
-    length equals the previous one is cyclic, otherwise a transition.  Feet alternate.
+    length equals the previous one is cyclic, otherwise a transition.  Feet alternate.  A
+    stop starts in the gait of its own length, so the last two lengths must be equal (the
+    paper's M_gen ends ...,150,150).
     """
     lengths = [float(x) for x in lengths]
     if len(lengths) < 2:
@@ -29,6 +31,13 @@ def sequence_specs(lengths: Sequence[float], first_swing: str = "left") -> list[
     for x in lengths:
         if not math.isfinite(x) or x <= 0:
             raise Error(f"step length {x * 1000:g} mm must be a positive finite number")
+    if lengths[-1] != lengths[-2]:
+        # a stop step of length L starts in the gait of length L (the paper's S(L))
+        a, b = (f"{1000 * x:g}" for x in lengths[-2:])
+        raise Error(
+            f"the stop step ({b} mm) must repeat the length before it ({a} mm): a stop starts where the "
+            f"previous step ended; end the list with ...,{b},{b} or ...,{a},{a}"
+        )
     specs = [StepSpec("start", 0.0, lengths[0], first_swing)]
     for previous, length in zip(lengths[:-2], lengths[1:-1]):
         kind = "cyclic" if length == previous else "transition"

@@ -1,0 +1,92 @@
+"""How often do generated walks stay up?  50 random 9-step sequences, simulated in MuJoCo.
+
+Each sequence draws its 9 step lengths uniformly from 150-400 mm (the training range),
+the last repeating the one before it (a stop starts in its own gait), each within
+``--max-change-mm`` of the one before (default 100 mm: the largest change
+between consecutive steps in the training data, 150 -> 250; 0 removes the limit), is generated with the bundled model, placed in the world (with the dynamics filter) and
+simulated with the stabilizer on, and with it off.  Goal (issue #4): at least 95 % walk
+without falling.
+
+    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import sys
+import time
+
+import numpy as np
+from tqdm import tqdm
+
+from cocomopl.cli import BUNDLED_MODEL
+
+
+def run_one(lengths_mm: list[float]) -> dict:
+    from cocomopl.pipeline import generate_walk
+    from cocomopl.sim.model import build_sim_model
+    from cocomopl.sim.rollout import simulate
+
+    walk = generate_walk([x / 1000 for x in lengths_mm], BUNDLED_MODEL)
+    sim = build_sim_model(walk.robot, visuals=False)
+    out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration}
+    for name, stabilizer in (("stabilizer", True), ("no_stabilizer", False)):
+        rollout = simulate(sim, walk.motion, stabilizer=stabilizer)
+        weight = walk.robot.mass * 9.81
+        out[name] = {
+            "fell": rollout.fell,
+            "fall_time_s": rollout.fall_time,
+            "peak_force_over_weight": float(rollout.measured.wrenches[..., 2].max() / weight),
+            "distance_m": float(rollout.measured.q[-1, 0] - rollout.measured.q[0, 0]),
+        }
+    return out
+
+
+def random_lengths(rng: np.random.Generator, max_change: float, n: int = 9) -> list[float]:
+    """Step lengths (mm) in 150-400, each within ``max_change`` of the previous (0: any)."""
+    out = [float(np.round(rng.uniform(150, 400)))]
+    while len(out) < n - 1:
+        low, high = (150, 400) if max_change <= 0 else (max(150, out[-1] - max_change), min(400, out[-1] + max_change))
+        out.append(float(np.round(rng.uniform(low, high))))
+    return out + out[-1:]  # a stop repeats the length before it
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=50)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-change-mm", type=float, default=100.0)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    rng = np.random.default_rng(args.seed)
+    sequences = [random_lengths(rng, args.max_change_mm) for _ in range(args.n)]
+    started = time.perf_counter()
+    with mp.get_context("spawn").Pool(args.workers) as pool:
+        results = list(tqdm(pool.imap(run_one, sequences), total=len(sequences), desc="random walks", file=sys.stderr))
+    summary = {"n": args.n, "seed": args.seed, "max_change_mm": args.max_change_mm, "wall_time_s": time.perf_counter() - started}
+    for name in ("stabilizer", "no_stabilizer"):
+        walked = [not r[name]["fell"] for r in results]
+        summary[name] = {
+            "walked": int(sum(walked)),
+            "walked_fraction": float(np.mean(walked)),
+            "peak_force_over_weight_median": float(np.median([r[name]["peak_force_over_weight"] for r in results])),
+        }
+    summary["falls"] = [r for r in results if r["stabilizer"]["fell"] or r["no_stabilizer"]["fell"]]
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for name in ("stabilizer", "no_stabilizer"):
+            s = summary[name]
+            print(f"{name:14s} walked {s['walked']}/{args.n} ({100 * s['walked_fraction']:.0f} %), "
+                  f"median peak force {s['peak_force_over_weight_median']:.2f} x weight")
+        for r in summary["falls"]:
+            print("fell:", r["lengths_mm"], {k: r[k]["fall_time_s"] for k in ("stabilizer", "no_stabilizer")})
+        print(f"{summary['wall_time_s']:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
