@@ -135,7 +135,7 @@ const canvas = document.getElementById("view"), g = canvas.getContext("2d");
 const slider = document.getElementById("slider"), label = document.getElementById("time");
 const button = document.getElementById("play"), speed = document.getElementById("speed");
 const colour = { left: "#1f77b4", right: "#d62728", centre: "#333" };
-let yaw = -1.2, pitch = 0.3, distance = 3.5, frame = 0, playing = true, last = null, drag = null;
+let yaw = -1.2, pitch = 0.3, distance = 2.6, frame = 0, playing = true, last = null, drag = null;
 slider.max = n - 1;
 
 // camera on a sphere around the target: dir points from the target to the eye

@@ -291,6 +291,21 @@ class Robot:
                     out.add(jid - 2)
         return sorted(out)
 
+    def leg_roles(self) -> dict[str, dict[str, int]]:
+        """Per side, the actuated-joint indices of hip roll and pitch, knee, and ankle pitch and
+        roll, found by axis along the chain from the pelvis to the sole: the first X and Y
+        joints are the hip's, the last Y and X the ankle's, the Y joint between them the knee."""
+        out = {}
+        for side, frame in self.foot_frames.items():
+            chain = [j - 2 for j in self.model.supports[self.model.frames[frame].parentJoint] if j >= 2]
+            axis = {i: self.model.joints[i + 2].shortname()[-1] for i in chain}
+            xs = [i for i in chain if axis[i] == "X"]
+            ys = [i for i in chain if axis[i] == "Y"]
+            if len(xs) < 2 or len(ys) < 3:
+                raise Error(f"robot {self.name!r}: the {side} leg has no hip-knee-ankle pitch and roll joints")
+            out[side] = {"hip_roll": xs[0], "hip_pitch": ys[0], "knee": ys[1], "ankle_pitch": ys[-1], "ankle_roll": xs[-1]}
+        return out
+
     def state_from_posture(self, q: np.ndarray) -> np.ndarray:
         """A static state ``x = (q, 0)``."""
         return np.concatenate([q, np.zeros(self.model.nv)])

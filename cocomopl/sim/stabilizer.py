@@ -33,29 +33,12 @@ ANKLE_LEAK = 0.5  # s: T, how fast the ankle returns to the reference
 MAX_CORRECTION = 0.2  # rad, per joint
 
 
-def _axis(robot, joint_index: int) -> str:
-    return robot.model.joints[joint_index + 2].shortname()[-1]
-
-
-def leg_roles(robot) -> dict[str, dict[str, int]]:
-    """Per side, the actuated-joint indices of hip roll and pitch and ankle pitch and roll:
-    the first X and Y joints from the pelvis down, and the last Y and X joints."""
-    model = robot.model
-    out = {}
-    for side in SIDES:
-        chain = [j - 2 for j in model.supports[model.frames[robot.foot_frames[side]].parentJoint] if j >= 2]
-        xs = [i for i in chain if _axis(robot, i) == "X"]
-        ys = [i for i in chain if _axis(robot, i) == "Y"]
-        out[side] = {"hip_roll": xs[0], "hip_pitch": ys[0], "ankle_pitch": ys[-1], "ankle_roll": xs[-1]}
-    return out
-
-
 class Stabilizer:
     """Corrections to the commanded joint angles of one rollout (it keeps the ankle state)."""
 
     def __init__(self, sim, reference: Motion):
         self.robot = sim.robot
-        self.roles = leg_roles(self.robot)
+        self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
         keep = reference.kept_samples()
         self.t = reference.t[keep]
