@@ -1,148 +1,298 @@
-"""Figures of merit for any motion, planned or measured (OC, primitives, Kajita, MuJoCo).
+"""Numbers that compare motions, planned or measured: the paper's mean torque (Table I),
+contact-force peaks and rates (Fig. 8), knee torques (Fig. 9), ZMP and joint tracking
+errors, falls and foot slip.
 
-Plain functions of :class:`Motion` objects; SI units.  Where a measured motion is compared
-with its reference, the reference is interpolated onto the measured times (its duplicated
-touchdown samples dropped first).
+Every function takes :class:`~cocomopl.motion.Motion` objects, whoever produced them (OC,
+primitives, the Kajita baseline, the MuJoCo simulator), and returns SI values.  Torques and
+contact wrenches hold over ``[t[k], t[k+1])`` (zero-order hold); the zero-length interval
+of a touchdown (pre-impact duplicate sample) therefore weighs nothing.  A measured motion
+is compared with its reference after aligning their first samples: the simulator's time
+0 is the reference's first sample.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from cocomopl.dynamics import SIDES, sole_placements
+from cocomopl.dynamics import SIDES, pelvis_placements, sole_placements
+from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
+from cocomopl.sim.rollout import FALL_HEIGHT_RATIO, FALL_TILT
 
-GRAVITY = 9.81
-CONTACT_FORCE = 20.0  # N: a sole carrying less is not standing on the ground (slip test)
-FALL_HEIGHT_RATIO = 0.6  # pelvis below this fraction of its starting height: fallen
+GRAVITY = 9.81  # m/s^2
+# Width (s) of the moving average applied to contact forces before differentiating them.
+# A simulator's forces chatter from one 1 kHz step to the next and spike for a single
+# sample at touchdown, so their raw rate measures the integrator more than the motion.
+# The smoothed peak rate of such a spike scales as 1/width: compare motions at one width.
+FORCE_FILTER_S = 0.02
+# A sole pushing with less than this fraction of the body weight is not counted as a
+# stance foot for slip: while the foot rolls off or lands it may move legitimately.
+SLIP_FORCE_RATIO = 0.05
 
 
-def _intervals(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
-    """Indices and lengths of the intervals of nonzero duration."""
-    dt = np.diff(motion.t)
-    k = np.flatnonzero(dt > 0)
-    return k, dt[k]
+def _joint_columns(motion: Motion, joints: list[str] | None) -> list[int]:
+    if joints is None:
+        return list(range(len(motion.joint_names)))
+    missing = [name for name in joints if name not in motion.joint_names]
+    if missing:
+        raise Error(f"motion {motion.name!r} has no joint named {missing[0]!r}")
+    return [motion.joint_names.index(name) for name in joints]
 
 
-def mean_torque(motion: Motion) -> float:
-    """The paper's Table I measure, ``(∫ τᵀτ dt)^½ / (N t_f)``, in N m s^-½.
+def torque_integral(motion: Motion, joints: list[str] | None = None) -> float:
+    """``∫ Σ_i τ_i(t)² dt`` (N² m² s) over the motion, torques held over each interval.
 
-    ``N`` actuated joints, ``t_f`` the duration; torques hold over each interval (zero-order
-    hold, the :class:`Motion` convention), so the integral is ``Σ |τ_k|² Δt_k``.  The paper
-    reports 15.6 for both its OC and MP motions on HRP-2 (units as printed there).
+    Parameters
+    ----------
+    motion : any motion
+    joints : names of the joints to sum over; all actuated joints if None
     """
-    k, dt = _intervals(motion)
-    integral = float(np.sum(np.sum(motion.tau[k] ** 2, axis=1) * dt))
-    return float(np.sqrt(integral) / (motion.tau.shape[1] * motion.duration))
+    tau = motion.tau[:-1, _joint_columns(motion, joints)]
+    return float(np.sum(np.sum(tau**2, axis=1) * np.diff(motion.t)))
+
+
+def mean_torque(motion: Motion, joints: list[str] | None = None) -> float:
+    """The paper's mean joint torque (Table I): ``(∫ Σ_i τ_i² dt)^½ / (N t_f)``.
+
+    Clever et al. (2017, sec. V) divide the root of the time integral of the summed squared
+    torques of the ``N`` actuated joints by ``N`` and the duration ``t_f``; they report it
+    in "N m s⁻¹" (strictly N m s^-½).  Here ``τ`` are the motion's joint torques (for an OC
+    motion its rigid-body joint torques, the paper's "OC joint t"; for a simulated one the
+    servo torques, "sim"), ``N`` is the number of joints summed over (30 for TALOS, as for
+    HRP-2) and ``t_f`` the motion's duration.  The value shrinks as ``t_f^-½`` for a
+    steady gait, so only motions of about the same duration compare; the magnitudes of
+    Table I (15.6 to 34.1 for HRP-2) are not reproduced by this literal reading, see
+    :func:`rms_torque` for a per-joint torque in N m.
+
+    Parameters
+    ----------
+    motion : any motion
+    joints : restrict the sum (and ``N``) to these joints; all actuated joints if None
+    """
+    n_joints = len(_joint_columns(motion, joints))
+    return float(np.sqrt(torque_integral(motion, joints)) / (n_joints * motion.duration))
+
+
+def rms_torque(motion: Motion, joints: list[str] | None = None) -> float:
+    """Root-mean-square joint torque ``(∫ Σ_i τ_i² dt / (N t_f))^½``, N m.
+
+    :func:`mean_torque` with the root taken after the division: a per-joint average torque
+    that does not shrink with the duration, for comparing motions of different lengths.
+    """
+    n_joints = len(_joint_columns(motion, joints))
+    return float(np.sqrt(torque_integral(motion, joints) / (n_joints * motion.duration)))
 
 
 def vertical_forces(motion: Motion) -> np.ndarray:
     """Vertical contact force (n, 2) of the (left, right) sole, N."""
-    return motion.wrenches[..., 2]
+    return motion.wrenches[:, :, 2].copy()
 
 
-def peak_force_over_weight(motion: Motion, mass: float) -> float:
-    """Largest vertical force on one sole divided by the robot's weight."""
-    return float(vertical_forces(motion).max() / (mass * GRAVITY))
+def peak_force_over_weight(motion: Motion, robot_mass: float) -> np.ndarray:
+    """Largest vertical force of each (left, right) sole over the body weight ``m g``, (2,)."""
+    return vertical_forces(motion).max(axis=0) / (robot_mass * GRAVITY)
 
 
-def force_rates(motion: Motion) -> np.ndarray:
-    """Rate of change (m, 2) of each sole's vertical force between consecutive samples, N/s."""
-    k, dt = _intervals(motion)
-    f = vertical_forces(motion)
-    return (f[k + 1] - f[k]) / dt[:, None]
+def smoothed_forces(motion: Motion, window: float = FORCE_FILTER_S) -> tuple[np.ndarray, np.ndarray]:
+    """Vertical forces averaged over a centred window of ``window`` seconds.
+
+    ``F_w(t) = (1/w) ∫_{t-w/2}^{t+w/2} F(s) ds`` with ``F`` held over each sample interval,
+    the window shortened at the ends of the motion.  Being an integral in time, it does not
+    depend on how the samples are spaced: a near-duplicate sample (a few µs apart) cannot
+    produce a huge rate, and ``|dF_w/dt|`` never exceeds the largest force jump over ``w``.
+
+    Returns
+    -------
+    t : (m,) the distinct sample times (pre-impact duplicates dropped), s
+    forces : (m, 2) the (left, right) averaged vertical forces, N
+    """
+    keep = motion.kept_samples()
+    t, forces = motion.t[keep], vertical_forces(motion)[keep]
+    integral = np.vstack([np.zeros(2), np.cumsum(forces[:-1] * np.diff(t)[:, None], axis=0)])
+    lower = np.maximum(t - window / 2, t[0])
+    upper = np.minimum(t + window / 2, t[-1])
+    averaged = [np.interp(upper, t, c) - np.interp(lower, t, c) for c in integral.T]
+    return t, np.column_stack(averaged) / (upper - lower)[:, None]
 
 
-def max_force_rate(motion: Motion) -> float:
-    """Largest |dF_z/dt| of either sole, N/s (the paper's Fig. 8 shows the forces)."""
-    rates = force_rates(motion)
-    return float(np.abs(rates).max()) if len(rates) else 0.0
+def force_rates(motion: Motion, window: float | None = FORCE_FILTER_S) -> np.ndarray:
+    """``dF_z/dt`` (m-1, 2) of each sole between consecutive distinct sample times, N/s.
+
+    Parameters
+    ----------
+    window : width (s) of the moving average applied first (:func:`smoothed_forces`);
+        None for the raw forces
+    """
+    if window is None:
+        keep = motion.kept_samples()
+        t, forces = motion.t[keep], vertical_forces(motion)[keep]
+    else:
+        t, forces = smoothed_forces(motion, window)
+    return np.diff(forces, axis=0) / np.diff(t)[:, None]
 
 
-def force_rate_rms(motion: Motion) -> float:
-    """RMS of dF_z/dt over both soles, N/s: lower is smoother."""
-    rates = force_rates(motion)
-    return float(np.sqrt(np.mean(rates**2))) if len(rates) else 0.0
+def max_force_rate(motion: Motion, window: float | None = FORCE_FILTER_S) -> np.ndarray:
+    """``max_k |dF_z/dt|`` of each (left, right) sole (2,), N/s; see :func:`force_rates`."""
+    return np.abs(force_rates(motion, window)).max(axis=0)
 
 
-def _at(reference: Motion, values: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """``values`` (per reference sample) linearly interpolated at ``times`` (relative to start)."""
-    keep = reference.kept_samples()
-    t = reference.t[keep] - reference.t[0]
-    v = values[keep]
-    return np.stack([np.interp(times, t, v[:, i]) for i in range(v.shape[1])], axis=1)
+def force_rate_rms(motion: Motion, window: float | None = FORCE_FILTER_S) -> np.ndarray:
+    """Smoothness of the contact forces: ``(∫ (dF_z/dt)² dt / t_f)^½`` per sole (2,), N/s.
+
+    The time-weighted RMS of :func:`force_rates`: a force profile that loads and unloads
+    a foot gently scores low, one with spikes and chatter high, whatever the peak force.
+    """
+    rates = force_rates(motion, window)
+    dt = np.diff(motion.t[motion.kept_samples()])
+    return np.sqrt(np.sum(rates**2 * dt[:, None], axis=0) / dt.sum())
+
+
+def _aligned(measured: Motion, reference: Motion, values: str, columns: slice) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``values`` of ``measured`` and of ``reference`` at the measured times, both
+    timed from their first samples; only times inside the reference's span."""
+    keep_m, keep_r = measured.kept_samples(), reference.kept_samples()
+    t_ref = reference.t[keep_r] - reference.t[0]
+    t = measured.t[keep_m] - measured.t[0]
+    inside = t <= t_ref[-1]
+    ours = getattr(measured, values)[keep_m][inside][:, columns]
+    theirs = getattr(reference, values)[keep_r][:, columns]
+    # linear interpolation; a NaN (undefined ZMP) spreads to the neighbouring interval
+    return ours, np.column_stack([np.interp(t[inside], t_ref, column) for column in theirs.T])
 
 
 def zmp_rms_error(measured: Motion, reference: Motion) -> float:
-    """RMS horizontal distance (m) of the measured ZMP from the reference ZMP at the same time.
+    """``(mean_k |p_m(t_k) - p_r(t_k)|²)^½`` of the horizontal ZMP, m, both world frame.
 
-    Samples where either ZMP is undefined (no foot pushing) are left out.
+    The reference ZMP is interpolated linearly onto the measured sample times; samples
+    where either ZMP is undefined (NaN: no foot pushes) are left out.  NaN if none remain.
     """
-    keep = reference.kept_samples()
-    ok = np.all(np.isfinite(reference.zmp[keep, :2]), axis=1)
-    t_ref = reference.t[keep][ok] - reference.t[0]
-    ref = np.stack([np.interp(measured.t - measured.t[0], t_ref, reference.zmp[keep][ok, i]) for i in range(2)], axis=1)
-    error = np.linalg.norm(measured.zmp[:, :2] - ref, axis=1)
+    ours, theirs = _aligned(measured, reference, "zmp", slice(0, 2))
+    error = np.sum((ours - theirs) ** 2, axis=1)
     error = error[np.isfinite(error)]
-    return float(np.sqrt(np.mean(error**2))) if len(error) else float("nan")
+    return float(np.sqrt(error.mean())) if len(error) else float("nan")
+
+
+def tracking_error(measured: Motion, reference: Motion) -> dict:
+    """Joint-angle error of ``measured`` against ``reference`` at the measured times, rad.
+
+    Returns
+    -------
+    dict with ``rms`` (over all joints and samples), ``max`` (largest absolute error) and
+    ``per_joint_rms`` ({joint name: rms})
+    """
+    if list(measured.joint_names) != list(reference.joint_names):
+        raise Error("the measured and reference motions have different joints")
+    ours, theirs = _aligned(measured, reference, "q", slice(7, None))
+    error = ours - theirs
+    return {
+        "rms": float(np.sqrt(np.mean(error**2))),
+        "max": float(np.abs(error).max()),
+        "per_joint_rms": dict(zip(measured.joint_names, np.sqrt(np.mean(error**2, axis=0)).tolist())),
+    }
+
+
+def knee_joints(robot: Robot) -> dict[str, int]:
+    """Actuated-joint index of each leg's knee.
+
+    A description may name them (``"knees": {"left": ..., "right": ...}``).  Otherwise the
+    knee is the leg joint bent most in the reference posture: a humanoid stands with bent
+    knees and nearly straight hips and ankles (TALOS half-sitting: ``leg_*_4_joint`` at
+    0.86 rad, the hips and ankles at about 0.4 rad).
+    """
+    named = robot.description.get("knees")
+    if named is not None:
+        missing = [name for name in named.values() if name not in robot.joint_names]
+        if missing:
+            raise Error(f"robot {robot.name!r} has no knee joint named {missing[0]!r}")
+        return {side: robot.joint_names.index(named[side]) for side in SIDES}
+    model = robot.model
+    out = {}
+    for side in SIDES:
+        chain = [j - 2 for j in model.supports[model.frames[robot.foot_frames[side]].parentJoint] if j >= 2]
+        out[side] = max(chain, key=lambda i: abs(robot.q_ref[7 + i]))
+    return out
 
 
 def knee_torques(robot: Robot, motion: Motion) -> dict[str, np.ndarray]:
-    """Knee torque (n,) of each leg, N m (the paper's Fig. 9)."""
-    return {side: motion.tau[:, roles["knee"]] for side, roles in robot.leg_roles().items()}
+    """Knee torque (n,) of each side, N m."""
+    return {side: motion.tau[:, i].copy() for side, i in knee_joints(robot).items()}
 
 
-def tracking_error(measured: Motion, reference: Motion) -> dict[str, float]:
-    """Joint-angle error of the measured motion against the reference, rad: RMS and max."""
-    ref = _at(reference, reference.q[:, 7:], measured.t - measured.t[0])
-    error = measured.q[:, 7:] - ref
-    return {"rms": float(np.sqrt(np.mean(error**2))), "max": float(np.abs(error).max())}
+def fell(robot: Robot, motion: Motion, height_ratio: float = FALL_HEIGHT_RATIO, tilt: float = FALL_TILT) -> bool:
+    """Whether the robot fell: the simulator said so (``meta["fell"]``), or at some sample
+    the pelvis is below ``height_ratio`` times its first height, or its z axis is tilted
+    from the vertical by more than ``tilt`` rad."""
+    if motion.meta.get("fell"):
+        return True
+    pelvis = pelvis_placements(robot, motion.q)
+    height = np.array([M.translation[2] for M in pelvis])
+    tilts = np.arccos(np.clip([M.rotation[2, 2] for M in pelvis], -1.0, 1.0))
+    return bool(np.any(height < height_ratio * height[0]) or np.any(tilts > tilt))
 
 
-def fell(motion: Motion) -> bool:
-    """Did the robot fall?  The simulator's verdict if recorded, else the pelvis height."""
-    if "fell" in motion.meta:
-        return bool(motion.meta["fell"])
-    return bool(motion.q[:, 2].min() < FALL_HEIGHT_RATIO * motion.q[0, 2])
+def foot_slip(robot: Robot, motion: Motion, force_ratio: float = SLIP_FORCE_RATIO) -> float:
+    """Largest horizontal drift of a sole while it carries weight, m.
+
+    For each sole and each run of consecutive samples where its vertical force exceeds
+    ``force_ratio`` times the body weight, the horizontal distance of the sole origin from
+    where it was at the run's first sample; the maximum over runs and soles.
+    """
+    soles = sole_placements(robot, motion.q)[..., :2]
+    loaded = vertical_forces(motion) > force_ratio * robot.mass * GRAVITY
+    slip = 0.0
+    for j in range(2):
+        edges = np.diff(np.concatenate([[0], loaded[:, j].astype(int), [0]]))
+        for first, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            drift = np.linalg.norm(soles[first:end, j] - soles[first, j], axis=1)
+            slip = max(slip, float(drift.max()))
+    return slip
 
 
-def foot_slip(robot: Robot, motion: Motion) -> float:
-    """Largest horizontal drift (m) of a sole while it carries at least ``CONTACT_FORCE``."""
-    soles = sole_placements(robot, motion.q)
-    loaded = vertical_forces(motion) > CONTACT_FORCE
-    worst = 0.0
-    for j in range(len(SIDES)):
-        k = 0
-        while k < motion.n:
-            if not loaded[k, j]:
-                k += 1
-                continue
-            first = k
-            while k < motion.n and loaded[k, j]:
-                k += 1
-            drift = np.linalg.norm(soles[first:k, j, :2] - soles[first, j, :2], axis=1)
-            worst = max(worst, float(drift.max()))
-    return worst
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
 
 
-def summary(robot: Robot, measured: Motion, reference: Motion) -> dict:
-    """The figures ``cocomopl walk`` and ``simulate`` report, JSON-ready."""
-    knees = knee_torques(robot, measured)
-    tracking = tracking_error(measured, reference)
-    return {
-        "fell": fell(measured),
-        "fall_time_s": measured.meta.get("fall_time_s"),
-        "peak_force_over_weight": peak_force_over_weight(measured, robot.mass),
-        "max_force_rate": max_force_rate(measured),
-        "force_rate_rms": force_rate_rms(measured),
-        "mean_torque": mean_torque(measured),
-        "mean_torque_reference": mean_torque(reference),
-        "zmp_rms_error": zmp_rms_error(measured, reference),
-        "knee_torque_peak": float(max(np.abs(k).max() for k in knees.values())),
-        "tracking_rms_rad": tracking["rms"],
-        "tracking_max_rad": tracking["max"],
-        "foot_slip_m": foot_slip(robot, measured),
+def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> dict:
+    """The comparison numbers of one motion, JSON-serialisable (undefined values None).
+
+    Force rates are of the forces smoothed over ``FORCE_FILTER_S`` (:func:`force_rates`);
+    ``max_force_rate_raw`` is without smoothing.  Per-foot values are the larger of the two
+    feet.  Entries that need a reference are None without one.
+
+    Returns
+    -------
+    dict with ``fell``, ``duration_s``, ``mean_torque`` (N m s^-½), ``rms_torque`` (N m),
+    ``peak_force_over_weight``, ``max_force_rate`` and ``max_force_rate_raw`` (N/s),
+    ``force_rate_rms`` (N/s), ``knee_torque_peak`` (N m), ``foot_slip_m``, and against the
+    reference:
+    ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
+    ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
+    """
+    out = {
+        "fell": fell(robot, measured),
         "duration_s": measured.duration,
-        "distance_m": float(measured.q[-1, 0] - measured.q[0, 0]),
+        "mean_torque": mean_torque(measured),
+        "rms_torque": rms_torque(measured),
+        "peak_force_over_weight": float(peak_force_over_weight(measured, robot.mass).max()),
+        "max_force_rate": float(max_force_rate(measured).max()),
+        "max_force_rate_raw": float(max_force_rate(measured, None).max()),
+        "force_rate_rms": float(force_rate_rms(measured).max()),
+        "knee_torque_peak": float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
+        "foot_slip_m": foot_slip(robot, measured),
+        "zmp_rms_error": None,
+        "tracking_rms_rad": None,
+        "tracking_max_rad": None,
+        "reference_mean_torque": None,
+        "completed": None,
     }
+    if reference is not None:
+        tracking = tracking_error(measured, reference)
+        out.update(
+            zmp_rms_error=_finite_or_none(zmp_rms_error(measured, reference)),
+            tracking_rms_rad=tracking["rms"],
+            tracking_max_rad=tracking["max"],
+            reference_mean_torque=mean_torque(reference),
+            completed=min(measured.duration / reference.duration, 1.0),
+        )
+    return out
