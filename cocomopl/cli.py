@@ -330,6 +330,23 @@ def cmd_simulate(args) -> int:
     return 1 if rollout.fell else 0
 
 
+def cmd_walk(args) -> int:
+    from cocomopl.pipeline import walk_report
+    from cocomopl.synthesis.sequence import parse_sequence_mm
+
+    lengths = parse_sequence_mm(args.lengths_mm)
+    payload = walk_report(lengths, Path(args.out), _model_path(args.model), stabilizer=not args.no_stabilizer,
+                          video=not args.no_video, progress=not args.json)
+    for message in payload["warnings"]:
+        print(f"cocomopl: warning: {message}", file=sys.stderr)
+    lines = [f"walk {args.lengths_mm} mm: {len(payload['steps'])} steps, generated in "
+             f"{payload['generation_s'] * 1e3:.2f} ms, simulated in MuJoCo "
+             f"({'with' if payload['stabilizer'] else 'without'} stabilizer)", _metrics_table(payload),
+             f"report in {args.out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
+    _emit(args, payload, "\n".join(lines))
+    return 1 if payload["fell"] else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from cocomopl import __version__
 
@@ -398,6 +415,16 @@ def build_parser() -> argparse.ArgumentParser:
     gen_walk.add_argument("--strict", action="store_true", help="refuse steps outside the training support")
     gen_walk.add_argument("--json", action="store_true", help="print one JSON object")
     gen_walk.set_defaults(func=cmd_generate)
+
+    walk = sub.add_parser("walk", help="the main job: generate a walk with the primitives, simulate it, write a report")
+    walk.add_argument("--lengths-mm", default=M_GEN_MM,
+                      help=f"step lengths in millimetres, start to stop (default: the paper's M_gen {M_GEN_MM})")
+    walk.add_argument("--out", default="cocomopl-walk", help="report folder (default: %(default)s)")
+    walk.add_argument("--model", help="model file (default: the bundled one)")
+    walk.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
+    walk.add_argument("--json", action="store_true", help="print one JSON object")
+    walk.set_defaults(func=cmd_walk)
 
     simulate = sub.add_parser("simulate", help="run a motion in MuJoCo with joint position control and measure it")
     simulate.add_argument("file", help="motion HDF5 (e.g. from 'cocomopl generate')")

@@ -67,6 +67,13 @@ def atomic_path(path: Path, suffix: str = ".tmp"):
     os.replace(tmp, path)
 
 
+def write_json(path: Path, payload: dict) -> Path:
+    """Write ``payload`` as indented JSON, atomically."""
+    with atomic_path(Path(path)) as tmp:
+        tmp.write_text(json.dumps(payload, indent=2, default=float) + "\n")
+    return Path(path)
+
+
 def write_motion_group(group: h5py.Group, motion: Motion, signals: dict | None = None) -> None:
     """Write one motion (and optionally its training signals) into an HDF5 group."""
     for key in _ARRAYS:

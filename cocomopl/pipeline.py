@@ -77,3 +77,52 @@ def simulate_walk(robot: Robot, motion: Motion, stabilizer: bool = True, video: 
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video)
     return rollout, summary(robot, rollout.measured, motion)
+
+
+def walk_report(
+    lengths: list[float],
+    out_dir: Path,
+    model_path: str | Path,
+    stabilizer: bool = True,
+    video: bool = True,
+    progress: bool = False,
+) -> dict:
+    """The main job: generate a walk, simulate it, and write a report folder.
+
+    ``out_dir`` receives ``motions.h5`` (the generated and the measured motion),
+    ``metrics.json``, comparison plots (ZMP, contact forces, knee torques, leg joints),
+    ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view.
+    Returns the metrics with the timings and the files written.
+    """
+    from cocomopl.analysis.report_plots import plot_comparison
+    from cocomopl.analysis.viewer import write_html_viewer
+    from cocomopl.motion_file import writable_folder, write_json, write_motions
+
+    started = time.perf_counter()
+    sequence_specs(lengths)  # refuse an impossible walk before anything is written
+    out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")
+    walk = generate_walk(lengths, model_path)
+    rollout, metrics = simulate_walk(
+        walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress
+    )
+    motions = {"generated": walk.motion, "simulated": rollout.measured}
+    files = [out_dir / "motions.h5"]
+    write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk"})
+    files += plot_comparison(walk.robot, motions, out_dir)
+    title = f"cocomopl walk {','.join(f'{1000 * x:g}' for x in lengths)} mm"
+    files.append(write_html_viewer(walk.robot, rollout.measured, out_dir / "walk.html", title=title))
+    if video:
+        files.append(out_dir / "walk.mp4")
+    payload = {
+        "lengths_mm": [1000 * x for x in lengths],
+        "steps": [s.spec.name for s in walk.steps],
+        "stabilizer": stabilizer,
+        **metrics,
+        "generation_s": walk.generation_s,
+        "placement_s": walk.placement_s,
+        "warnings": walk.warnings,
+        "files": [str(f) for f in files + [out_dir / "metrics.json"]],
+    }
+    payload["wall_time_s"] = time.perf_counter() - started
+    write_json(out_dir / "metrics.json", payload)
+    return payload
