@@ -292,8 +292,9 @@ def cmd_plot(args) -> int:
 METRIC_ROWS = (
     ("fell", "fell", "{}"),
     ("peak_force_over_weight", "peak vertical force / weight", "{:.2f}"),
-    ("max_force_rate", "max vertical force rate (N/s)", "{:.0f}"),
-    ("mean_torque", "mean torque (paper's Table I, N m)", "{:.4f}"),
+    ("max_force_rate", "max vertical force rate, 20 ms (N/s)", "{:.0f}"),
+    ("mean_torque", "mean torque (Table I, N m s^-1/2)", "{:.4f}"),
+    ("rms_torque", "RMS joint torque (N m)", "{:.2f}"),
     ("zmp_rms_error", "ZMP RMS error vs reference (m)", "{:.4f}"),
     ("tracking_rms_rad", "joint tracking RMS (rad)", "{:.4f}"),
     ("foot_slip_m", "foot slip (m)", "{:.4f}"),
@@ -302,7 +303,9 @@ METRIC_ROWS = (
 
 
 def _metrics_table(metrics: dict) -> str:
-    return "\n".join(f"{label:36s} {fmt.format(metrics[key])}" for key, label, fmt in METRIC_ROWS if key in metrics)
+    return "\n".join(
+        f"{label:38s} {'-' if metrics.get(key) is None else fmt.format(metrics[key])}" for key, label, fmt in METRIC_ROWS
+    )
 
 
 def _output_file(path: str, default: Path) -> Path:

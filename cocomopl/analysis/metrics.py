@@ -13,8 +13,10 @@ is compared with its reference after aligning their first samples: the simulator
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
-from cocomopl.dynamics import SIDES, pelvis_placements, sole_placements
+from cocomopl.analysis.feasibility import polygon_margin, support_polygon
+from cocomopl.dynamics import pelvis_placements, sole_placements
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
@@ -193,25 +195,9 @@ def tracking_error(measured: Motion, reference: Motion) -> dict:
 
 
 def knee_joints(robot: Robot) -> dict[str, int]:
-    """Actuated-joint index of each leg's knee.
-
-    A description may name them (``"knees": {"left": ..., "right": ...}``).  Otherwise the
-    knee is the leg joint bent most in the reference posture: a humanoid stands with bent
-    knees and nearly straight hips and ankles (TALOS half-sitting: ``leg_*_4_joint`` at
-    0.86 rad, the hips and ankles at about 0.4 rad).
-    """
-    named = robot.description.get("knees")
-    if named is not None:
-        missing = [name for name in named.values() if name not in robot.joint_names]
-        if missing:
-            raise Error(f"robot {robot.name!r} has no knee joint named {missing[0]!r}")
-        return {side: robot.joint_names.index(named[side]) for side in SIDES}
-    model = robot.model
-    out = {}
-    for side in SIDES:
-        chain = [j - 2 for j in model.supports[model.frames[robot.foot_frames[side]].parentJoint] if j >= 2]
-        out[side] = max(chain, key=lambda i: abs(robot.q_ref[7 + i]))
-    return out
+    """Actuated-joint index of each leg's knee: the pitch joint between hip and ankle
+    (:meth:`Robot.leg_roles`; TALOS ``leg_left_4_joint`` and ``leg_right_4_joint``)."""
+    return {side: roles["knee"] for side, roles in robot.leg_roles().items()}
 
 
 def knee_torques(robot: Robot, motion: Motion) -> dict[str, np.ndarray]:
@@ -249,6 +235,21 @@ def foot_slip(robot: Robot, motion: Motion, force_ratio: float = SLIP_FORCE_RATI
     return slip
 
 
+def end_balance_margin(robot: Robot, motion: Motion, force_ratio: float = SLIP_FORCE_RATIO) -> float:
+    """Signed distance (m) of the CoM's ground projection inside the support polygon of the
+    soles carrying weight at the last sample; negative outside, NaN if no sole carries any.
+
+    A walk ends at rest, so a negative margin means the robot is falling when the motion
+    ends, even if it has not yet dropped far enough for :func:`fell`.
+    """
+    loaded = vertical_forces(motion)[-1] > force_ratio * robot.mass * GRAVITY
+    if not loaded.any():
+        return float("nan")
+    q = motion.q[-1]
+    com = pin.centerOfMass(robot.model, robot.model.createData(), q)
+    return polygon_margin(support_polygon(robot, q, loaded), com[:2])
+
+
 def _finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
@@ -264,9 +265,8 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     -------
     dict with ``fell``, ``duration_s``, ``mean_torque`` (N m s^-½), ``rms_torque`` (N m),
     ``peak_force_over_weight``, ``max_force_rate`` and ``max_force_rate_raw`` (N/s),
-    ``force_rate_rms`` (N/s), ``knee_torque_peak`` (N m), ``foot_slip_m``, and against the
-    reference:
-    ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
+    ``force_rate_rms`` (N/s), ``knee_torque_peak`` (N m), ``foot_slip_m``,
+    ``end_balance_margin_m``, and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
     ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
     """
     out = {
@@ -280,6 +280,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
         "force_rate_rms": float(force_rate_rms(measured).max()),
         "knee_torque_peak": float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
         "foot_slip_m": foot_slip(robot, measured),
+        "end_balance_margin_m": _finite_or_none(end_balance_margin(robot, measured)),
         "zmp_rms_error": None,
         "tracking_rms_rad": None,
         "tracking_max_rad": None,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cocomopl.analysis.metrics import GRAVITY, knee_joints, leg_chain, vertical_forces
+from cocomopl.analysis.metrics import GRAVITY, knee_joints, vertical_forces
 from cocomopl.analysis.plots import pyplot, save_figure
 from cocomopl.dynamics import SIDES
 from cocomopl.motion import Motion
@@ -22,6 +22,12 @@ from cocomopl.robot import Robot
 def _colours(motions: dict[str, Motion]) -> dict[str, str]:
     cycle = ["tab:red", "tab:blue", "tab:cyan", "tab:green", "tab:magenta", "tab:orange", "tab:olive"]
     return {label: "k" if i == 0 else cycle[(i - 1) % len(cycle)] for i, label in enumerate(motions)}
+
+
+def _leg_chain(robot: Robot, side: str) -> list[int]:
+    """Actuated-joint indices from the pelvis down to the ``side`` sole."""
+    model = robot.model
+    return [j - 2 for j in model.supports[model.frames[robot.foot_frames[side]].parentJoint] if j >= 2]
 
 
 def plot_zmp_comparison(motions: dict[str, Motion], path: Path) -> Path:
@@ -62,7 +68,14 @@ def plot_knee_torque_comparison(robot: Robot, motions: dict[str, Motion], path: 
     fig, axes = pyplot().subplots(2, 1, figsize=(10, 6), sharex=True)
     for ax, side in zip(axes, SIDES):
         for label, motion in motions.items():
-            ax.step(motion.t - motion.t[0], motion.tau[:, knees[side]], where="post", color=colours[label], lw=1, label=label)
+            ax.step(
+                motion.t - motion.t[0],
+                motion.tau[:, knees[side]],
+                where="post",
+                color=colours[label],
+                lw=1,
+                label=label,
+            )
         ax.set_ylabel("torque (N m)")
         ax.set_title(f"{side} knee ({robot.joint_names[knees[side]]})", fontsize=10)
     axes[0].legend(fontsize=8)
@@ -73,7 +86,7 @@ def plot_knee_torque_comparison(robot: Robot, motions: dict[str, Motion], path: 
 def plot_leg_joint_comparison(robot: Robot, motions: dict[str, Motion], path: Path) -> Path:
     """Leg joint angles against time, one panel per joint (left leg in the left column)."""
     colours = _colours(motions)
-    legs = {side: leg_chain(robot, side) for side in SIDES}
+    legs = {side: _leg_chain(robot, side) for side in SIDES}
     rows = max(len(idx) for idx in legs.values())
     fig, axes = pyplot().subplots(rows, 2, figsize=(12, 1.8 * rows + 0.6), sharex=True, squeeze=False)
     for column, side in enumerate(SIDES):

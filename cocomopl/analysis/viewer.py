@@ -24,6 +24,13 @@ FPS = 40.0  # frames per second of the page: 25 ms, the knot spacing of the OC m
 DECIMALS = 4  # 0.1 mm: invisible on screen, keeps the page small
 
 
+def _points(model: pin.Model, data: pin.Data, tip_frames: list[int]) -> np.ndarray:
+    """World positions (m, 3) of the skeleton points after forward kinematics."""
+    return np.array(
+        [data.oMi[j].translation for j in range(1, model.njoints)] + [data.oMf[f].translation for f in tip_frames]
+    )
+
+
 def skeleton(robot: Robot) -> tuple[list[tuple[int, int]], list[str], list[int]]:
     """The stick figure: which points are joined, on which side, and the tip frames.
 
@@ -46,11 +53,15 @@ def skeleton(robot: Robot) -> tuple[list[tuple[int, int]], list[str], list[int]]
     segments = [(model.parents[j] - 1, j - 1) for j in range(2, model.njoints)]
     tip_frames = []
     for j in (j for j in range(2, model.njoints) if not children[j]):
-        frames = [f for f in range(model.nframes) if model.frames[f].parentJoint == j and model.frames[f].type == pin.FrameType.BODY]
+        frames = [
+            f
+            for f in range(model.nframes)
+            if model.frames[f].parentJoint == j and model.frames[f].type == pin.FrameType.BODY
+        ]
         tip = max(frames, key=lambda f: np.linalg.norm(data.oMf[f].translation - data.oMi[j].translation))
         segments.append((j - 1, model.njoints - 1 + len(tip_frames)))
         tip_frames.append(tip)
-    points = np.vstack([[data.oMi[j].translation for j in range(1, model.njoints)], [data.oMf[f].translation for f in tip_frames]])
+    points = _points(model, data, tip_frames)
     # the reference posture stands at the origin facing +x: left is +y
     lateral = points[:, 1] - robot.q_ref[1]
     sides = ["left" if lateral[c] > 0.01 else "right" if lateral[c] < -0.01 else "centre" for _, c in segments]
@@ -74,8 +85,11 @@ def viewer_data(robot: Robot, motion: Motion, fps: float = FPS) -> dict:
     for k, s in zip(knot, share):
         qk = pin.interpolate(model, q[k], q[k + 1], s)
         pin.framesForwardKinematics(model, data, qk)
-        points = [data.oMi[j].translation for j in range(1, model.njoints)] + [data.oMf[f].translation for f in tip_frames]
-        soles = [corners @ data.oMf[f].rotation.T + data.oMf[f].translation for f in (robot.foot_frames[side] for side in SIDES)]
+        points = _points(model, data, tip_frames)
+        soles = [
+            corners @ data.oMf[f].rotation.T + data.oMf[f].translation
+            for f in (robot.foot_frames[side] for side in SIDES)
+        ]
         p = (1 - s) * zmp[k, :2] + s * zmp[k + 1, :2]
         frames["points"].append(np.round(points, DECIMALS).tolist())
         frames["soles"].append(np.round(soles, DECIMALS).tolist())

@@ -24,6 +24,7 @@ from cocomopl.sim.stabilizer import Stabilizer
 
 RECORD_DT = 0.005  # s between recorded samples
 SETTLE_S = 0.5  # s standing before the motion starts
+HOLD_S = 1.0  # s standing in the last posture after it ends: a walk must also come to rest
 CONTACT_FORCE = 1.0  # N: a sole with less than this is in the air
 # fall: the pelvis below this fraction of its starting height, or the trunk tilted this much
 FALL_HEIGHT_RATIO = 0.6
@@ -92,6 +93,7 @@ def simulate(
     motion: Motion,
     stabilizer: bool = True,
     settle: float = SETTLE_S,
+    hold: float = HOLD_S,
     record_dt: float = RECORD_DT,
     progress: bool = False,
 ) -> Rollout:
@@ -103,6 +105,8 @@ def simulate(
     motion : the reference, world frame, starting at rest on the floor
     stabilizer : add the stabilizer's corrections to the commanded joint angles
     settle : seconds standing in the first posture before the motion starts
+    hold : seconds the last posture is held after the motion ends (recorded: a robot that
+        topples right after the last step has fallen)
     record_dt : seconds between recorded samples
 
     Returns
@@ -117,7 +121,7 @@ def simulate(
     control = Stabilizer(sim, motion) if stabilizer else None
     every = max(int(round(record_dt / model.opt.timestep)), 1)
     n_settle = int(round(settle / model.opt.timestep))
-    n_total = n_settle + int(np.ceil(motion.duration / model.opt.timestep))
+    n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
     start_height = float(data.qpos[2])
     rows: dict[str, list] = {k: [] for k in ("t", "q", "v", "tau", "wrenches", "qpos")}
     fell, fall_time = False, None

@@ -1,0 +1,304 @@
+"""Metrics, comparison plots and the HTML viewer on inputs whose answers are known by hand,
+and on one real OC step of the bundled dataset."""
+
+import dataclasses
+import json
+import re
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cocomopl.analysis import metrics
+from cocomopl.analysis.report_plots import plot_comparison
+from cocomopl.analysis.viewer import skeleton, write_html_viewer
+from cocomopl.errors import Error
+from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion_file import read_motion
+
+DATASET = Path(__file__).parents[1] / "cocomopl" / "data" / "dataset.h5"
+
+
+def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=None) -> Motion:
+    """A motion on the time grid ``t``; unspecified parts: standing still in the reference
+    posture, zero torques, no force, ZMP at the origin."""
+    n = len(t)
+    wrenches = np.zeros((n, 2, 6))
+    if fz is not None:
+        wrenches[:, :, 2] = fz
+    return Motion(
+        t=np.asarray(t, dtype=float),
+        q=np.tile(robot.q_ref, (n, 1)) if q is None else q,
+        v=np.zeros((n, robot.model.nv)),
+        tau=np.zeros((n, robot.nu)) if tau is None else tau,
+        wrenches=wrenches,
+        contact=wrenches[:, :, 2] > 0,
+        zmp=np.zeros((n, 3)) if zmp is None else zmp,
+        phases=[("ds", 0, n - 1)],
+        impacts=np.array(impacts, dtype=int),
+        steps=[StepSpec("cyclic", 0.2, 0.2)],
+        step_starts=np.array([0]),
+        joint_names=list(robot.joint_names),
+        robot=robot.name,
+        meta=meta or {},
+    )
+
+
+def without_duplicates(motion: Motion) -> Motion:
+    keep = motion.kept_samples()
+    return dataclasses.replace(
+        motion,
+        t=motion.t[keep],
+        q=motion.q[keep],
+        v=motion.v[keep],
+        tau=motion.tau[keep],
+        wrenches=motion.wrenches[keep],
+        contact=motion.contact[keep],
+        zmp=motion.zmp[keep],
+        impacts=np.zeros(0, dtype=int),
+    )
+
+
+@pytest.fixture(scope="module")
+def oc_step() -> Motion:
+    return read_motion(DATASET, "cyclic_250_L")
+
+
+# ------------------------------------------------------------------ torques
+def test_mean_torque_of_constant_torques_is_the_formula(robot):
+    # 2 s at 10 ms with a touchdown duplicate at 1 s: its zero-length interval adds nothing
+    t = np.sort(np.concatenate([np.linspace(0.0, 2.0, 201), [1.0]]))
+    tau = np.full((len(t), robot.nu), 3.0)
+    tau[:, 0] = -4.0
+    impact = int(np.flatnonzero(t == 1.0)[0])
+    tau[impact] = 1e3  # held over [1, 1): must not count
+    motion = synthetic(robot, t, tau=tau, impacts=[impact])
+    N, T = robot.nu, 2.0
+    integral = (16.0 + 9.0 * (N - 1)) * T
+    assert metrics.torque_integral(motion) == pytest.approx(integral)
+    assert metrics.mean_torque(motion) == pytest.approx(np.sqrt(integral) / (N * T))
+    assert metrics.rms_torque(motion) == pytest.approx(np.sqrt(integral / (N * T)))
+    first = robot.joint_names[:1]
+    assert metrics.mean_torque(motion, first) == pytest.approx(np.sqrt(16.0 * T) / T)
+    with pytest.raises(Error, match="no joint named"):
+        metrics.mean_torque(motion, ["no_such_joint"])
+
+
+def test_mean_torque_of_an_oc_step_ignores_the_touchdown_duplicate(oc_step):
+    assert len(oc_step.impacts) == 1
+    value = metrics.mean_torque(oc_step)
+    assert np.isfinite(value) and value > 0
+    assert metrics.mean_torque(without_duplicates(oc_step)) == pytest.approx(value, rel=1e-12)
+
+
+# ------------------------------------------------------------------ contact forces
+def test_standing_still_with_the_weight_split_carries_half_on_each_foot(robot):
+    weight = robot.mass * metrics.GRAVITY
+    motion = synthetic(robot, np.linspace(0, 1, 41), fz=weight / 2)
+    np.testing.assert_allclose(metrics.peak_force_over_weight(motion, robot.mass), [0.5, 0.5])
+    np.testing.assert_allclose(metrics.max_force_rate(motion), [0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(metrics.force_rate_rms(motion, None), [0.0, 0.0])
+    assert metrics.foot_slip(robot, motion) == 0.0
+    assert not metrics.fell(robot, motion)
+
+
+def test_a_linear_force_ramp_has_its_slope_as_rate(robot):
+    slope = 2000.0  # N/s
+    t = np.linspace(0.0, 0.5, 101)  # 5 ms, as a simulator records
+    fz = np.column_stack([slope * t, np.full_like(t, 300.0)])
+    motion = synthetic(robot, t, fz=fz)
+    np.testing.assert_allclose(metrics.force_rates(motion, None)[:, 0], slope)
+    np.testing.assert_allclose(metrics.max_force_rate(motion, None), [slope, 0.0], atol=1e-9)
+    np.testing.assert_allclose(metrics.force_rate_rms(motion, None), [slope, 0.0], atol=1e-9)
+    # a moving average does not change a ramp's slope (away from the ends, where it is shortened)
+    smoothed = metrics.force_rates(motion, 0.02)[:, 0]
+    np.testing.assert_allclose(smoothed[5:-5], slope)
+    assert metrics.max_force_rate(motion, 0.02)[0] == pytest.approx(slope)
+
+
+def test_smoothing_bounds_the_rate_of_a_jump_on_any_sample_spacing(robot):
+    # a 600 N jump between two samples 1 µs apart: raw rate 6e8 N/s, smoothed at most 600 N / w
+    t = np.sort(np.concatenate([np.arange(0.0, 0.4, 0.005), [0.2 + 1e-6]]))
+    fz = np.column_stack([np.where(t > 0.2, 600.0, 0.0), np.zeros_like(t)])
+    motion = synthetic(robot, t, fz=fz)
+    assert metrics.max_force_rate(motion, None)[0] == pytest.approx(600.0 / 1e-6, rel=1e-6)
+    for window in (0.01, 0.02, 0.04):
+        assert metrics.max_force_rate(motion, window)[0] <= 600.0 / window * (1 + 1e-9)
+        assert metrics.max_force_rate(motion, window)[0] >= 0.5 * 600.0 / window
+
+
+# ------------------------------------------------------------------ tracking
+def test_zmp_rms_error_of_a_sinusoid_against_a_still_reference(robot):
+    amplitude, period = 0.03, 0.5
+    t = np.arange(0.0, 2.0 + 1e-9, 0.005)
+    zmp = np.zeros((len(t), 3))
+    zmp[:, 0] = amplitude * np.sin(2 * np.pi * t / period) + 0.01  # + a known offset in x
+    zmp[:, 1] = 0.02  # and in y
+    zmp[t > 1.5] = np.nan  # no foot pushes: left out (three whole periods remain)
+    measured = synthetic(robot, t + 7.0, zmp=zmp)  # the measured clock starts elsewhere
+    reference = synthetic(robot, np.arange(0.0, 2.5, 0.025))
+    keep = np.isfinite(zmp[:, 0])
+    expected = np.sqrt(np.mean(np.sum(zmp[keep, :2] ** 2, axis=1)))
+    assert metrics.zmp_rms_error(measured, reference) == pytest.approx(expected)
+    # over whole periods: mean of sin^2 is 1/2, the cross term vanishes
+    assert expected == pytest.approx(np.sqrt(amplitude**2 / 2 + 0.01**2 + 0.02**2), rel=2e-3)
+
+
+def test_tracking_error_of_one_offset_joint(robot):
+    t = np.arange(0.0, 1.0 + 1e-9, 0.005)
+    q = np.tile(robot.q_ref, (len(t), 1))
+    q[:, 7 + 3] += 0.05
+    measured = synthetic(robot, t, q=q)
+    reference = synthetic(robot, np.arange(0.0, 0.6 + 1e-9, 0.025))  # shorter: only its span counts
+    error = metrics.tracking_error(measured, reference)
+    assert error["max"] == pytest.approx(0.05)
+    assert error["rms"] == pytest.approx(0.05 / np.sqrt(robot.nu))
+    assert error["per_joint_rms"][robot.joint_names[3]] == pytest.approx(0.05)
+    assert error["per_joint_rms"][robot.joint_names[0]] == pytest.approx(0.0)
+
+
+# ------------------------------------------------------------------ knees, falls, slip
+def test_knees_are_the_talos_knees_and_their_torques(robot):
+    knees = metrics.knee_joints(robot)
+    names = {side: robot.joint_names[i] for side, i in knees.items()}
+    assert names == {"left": "leg_left_4_joint", "right": "leg_right_4_joint"}
+    # the knee is the leg joint bent most when standing half-sitting
+    for side, i in knees.items():
+        legs = [j for j in robot.leg_joint_indices() if (j in range(6)) == (side == "left")]
+        assert i == max(legs, key=lambda j: abs(robot.q_ref[7 + j]))
+    tau = np.arange(4 * robot.nu, dtype=float).reshape(4, robot.nu)
+    torques = metrics.knee_torques(robot, synthetic(robot, np.arange(4.0), tau=tau))
+    np.testing.assert_array_equal(torques["left"], tau[:, knees["left"]])
+    np.testing.assert_array_equal(torques["right"], tau[:, knees["right"]])
+
+
+def test_falls_by_flag_height_or_tilt(robot):
+    t = np.linspace(0.0, 1.0, 11)
+    assert metrics.fell(robot, synthetic(robot, t, meta={"fell": True}))
+    dropped = np.tile(robot.q_ref, (len(t), 1))
+    dropped[-1, 2] *= 0.5
+    assert metrics.fell(robot, synthetic(robot, t, q=dropped))
+    tilted = np.tile(robot.q_ref, (len(t), 1))
+    tilted[-1, 3:7] = pin.Quaternion(pin.utils.rotate("x", np.radians(60.0))).coeffs()  # x, y, z, w
+    assert metrics.fell(robot, synthetic(robot, t, q=tilted))
+    tilted[-1, 3:7] = pin.Quaternion(pin.utils.rotate("y", np.radians(20.0))).coeffs()
+    assert not metrics.fell(robot, synthetic(robot, t, q=tilted))
+
+
+def test_foot_slip_counts_only_loaded_runs(robot):
+    t = np.linspace(0.0, 1.0, 20)
+    q = np.tile(robot.q_ref, (20, 1))
+    q[:10, 0] = np.linspace(0.0, 0.012, 10)  # both soles slide 12 mm while loaded
+    q[10:15, 0] = 0.5  # a long move while lifted (force below the threshold)
+    q[15:, 0] = 0.5
+    q[15:, 1] = np.linspace(0.0, 0.004, 5)  # 4 mm sideways in the next loaded run
+    fz = np.full((20, 2), 400.0)
+    fz[10:15] = 0.02 * robot.mass * metrics.GRAVITY
+    assert metrics.foot_slip(robot, synthetic(robot, t, q=q, fz=fz)) == pytest.approx(0.012, abs=1e-9)
+
+
+def test_end_balance_margin_of_standing_on_both_or_one_foot(robot):
+    t = np.linspace(0.0, 1.0, 5)
+    pdata = robot.model.createData()
+    com = pin.centerOfMass(robot.model, pdata, robot.q_ref)
+    pin.framesForwardKinematics(robot.model, pdata, robot.q_ref)
+    left = pdata.oMf[robot.foot_frames["left"]].translation
+    right = pdata.oMf[robot.foot_frames["right"]].translation
+    both = metrics.end_balance_margin(robot, synthetic(robot, t, fz=400.0))
+    # the CoM stands between the feet: its distance to the nearer side edge of the soles
+    expected = min(left[1] + robot.sole.half_width - com[1], com[1] - (right[1] - robot.sole.half_width))
+    assert both == pytest.approx(
+        min(expected, robot.sole.front - (com[0] - left[0]), com[0] - left[0] + robot.sole.back), abs=1e-5
+    )
+    # on the left foot alone, the CoM is outside by its distance to the sole's inner edge
+    alone = metrics.end_balance_margin(robot, synthetic(robot, t, fz=np.array([400.0, 0.0])))
+    assert alone == pytest.approx(-(left[1] - robot.sole.half_width - com[1]), abs=1e-5)  # soles tilt by mrad
+    assert np.isnan(metrics.end_balance_margin(robot, synthetic(robot, t)))
+
+
+# ------------------------------------------------------------------ summary
+def test_summary_of_an_oc_step_against_itself_is_json_and_exact(robot, oc_step):
+    report = metrics.summary(robot, oc_step, oc_step)
+    text = json.dumps(report, allow_nan=False)
+    assert json.loads(text) == report
+    for key in (
+        "fell",
+        "peak_force_over_weight",
+        "max_force_rate",
+        "mean_torque",
+        "zmp_rms_error",
+        "duration_s",
+        "foot_slip_m",
+        "tracking_rms_rad",
+        "knee_torque_peak",
+        "force_rate_rms",
+    ):
+        assert key in report
+    assert report["fell"] is False
+    assert report["zmp_rms_error"] == pytest.approx(0.0, abs=1e-12)
+    assert report["tracking_rms_rad"] == 0.0 and report["completed"] == 1.0
+    assert report["mean_torque"] == report["reference_mean_torque"] > 0
+    # a walking step carries the body weight and a bit more while decelerating it
+    assert 0.9 < report["peak_force_over_weight"] < 2.0
+    assert report["foot_slip_m"] < 0.005  # the OC stance sole is fixed up to the Euler drift
+    # a stop step ends at rest in double support: its CoM is well inside the soles
+    stop = read_motion(DATASET, "stop_250_L")
+    assert metrics.summary(robot, stop)["end_balance_margin_m"] > 0.05
+    assert metrics.summary(robot, oc_step)["zmp_rms_error"] is None
+
+
+# ------------------------------------------------------------------ plots and viewer
+def test_comparison_plots_are_written(robot, oc_step, tmp_path):
+    import matplotlib.image
+
+    paths = plot_comparison(
+        robot, {"OC": oc_step, "OC without duplicates": without_duplicates(oc_step)}, tmp_path / "out"
+    )
+    assert len(paths) == 4
+    for path in paths:
+        assert matplotlib.image.imread(path).shape[0] > 100
+
+
+class _Scripts(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.scripts, self._current = {}, None
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "script":
+            self._current = dict(attrs).get("id", "inline")
+            self.scripts[self._current] = ""
+
+    def handle_data(self, data):
+        if self._current is not None:
+            self.scripts[self._current] += data
+
+    def handle_endtag(self, tag):
+        if tag == "script":
+            self._current = None
+
+
+def test_html_viewer_embeds_forward_kinematics(robot, oc_step, tmp_path):
+    path = write_html_viewer(robot, oc_step, tmp_path / "step.html", title="a <step>", fps=40.0)
+    text = path.read_text()
+    assert "&lt;step&gt;" in text and not re.search(r"(src|href)=\"?https?:", text)  # nothing from the network
+    parser = _Scripts()
+    parser.feed(text)
+    data = json.loads(parser.scripts["motion-data"])
+    assert len(data["t"]) == round(oc_step.duration * 40) + 1
+    assert len(data["points"]) == len(data["com"]) == len(data["zmp"]) == len(data["t"])
+    # frame 10 is at 0.25 s, knot 10 of the 25 ms OC step (before the touchdown duplicate)
+    model, pdata = robot.model, robot.model.createData()
+    q = oc_step.q[10]
+    pin.framesForwardKinematics(model, pdata, q)
+    _, _, tips = skeleton(robot)
+    expected = [pdata.oMi[j].translation for j in range(1, model.njoints)] + [pdata.oMf[f].translation for f in tips]
+    np.testing.assert_allclose(data["points"][10], expected, atol=1e-4)
+    np.testing.assert_allclose(data["com"][10], pin.centerOfMass(model, pdata, q), atol=1e-4)
+    sole = pdata.oMf[robot.foot_frames["left"]]
+    corner = sole.rotation @ np.array([*robot.sole.corners()[0], 0.0]) + sole.translation
+    np.testing.assert_allclose(data["soles"][10][0][0], corner, atol=1e-4)
+    np.testing.assert_allclose(data["zmp"][10], oc_step.zmp[10, :2], atol=1e-4)
+    assert all(0 <= a < len(expected) and 0 <= b < len(expected) for a, b in data["segments"])
