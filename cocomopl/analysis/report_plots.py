@@ -24,12 +24,6 @@ def _colours(motions: dict[str, Motion]) -> dict[str, str]:
     return {label: "k" if i == 0 else cycle[(i - 1) % len(cycle)] for i, label in enumerate(motions)}
 
 
-def _leg_chain(robot: Robot, side: str) -> list[int]:
-    """Actuated-joint indices from the pelvis down to the ``side`` sole."""
-    model = robot.model
-    return [j - 2 for j in model.supports[model.frames[robot.foot_frames[side]].parentJoint] if j >= 2]
-
-
 def plot_zmp_comparison(motions: dict[str, Motion], path: Path) -> Path:
     """ZMP x and y against time, one line per motion (the paper's Fig. 6)."""
     colours = _colours(motions)
@@ -86,7 +80,7 @@ def plot_knee_torque_comparison(robot: Robot, motions: dict[str, Motion], path: 
 def plot_leg_joint_comparison(robot: Robot, motions: dict[str, Motion], path: Path) -> Path:
     """Leg joint angles against time, one panel per joint (left leg in the left column)."""
     colours = _colours(motions)
-    legs = {side: _leg_chain(robot, side) for side in SIDES}
+    legs = {side: robot.leg_chain(side) for side in SIDES}
     rows = max(len(idx) for idx in legs.values())
     fig, axes = pyplot().subplots(rows, 2, figsize=(12, 1.8 * rows + 0.6), sharex=True, squeeze=False)
     for column, side in enumerate(SIDES):

@@ -282,22 +282,21 @@ class Robot:
         return reduced
 
     # ------------------------------------------------------------------ conveniences
+    def leg_chain(self, side: str) -> list[int]:
+        """Actuated-joint indices from the pelvis down to the ``side`` sole, in order."""
+        return [j - 2 for j in self.model.supports[self.model.frames[self.foot_frames[side]].parentJoint] if j >= 2]
+
     def leg_joint_indices(self) -> list[int]:
         """Actuated-joint indices of the chains from the pelvis to the soles."""
-        out = set()
-        for frame in self.foot_frames.values():
-            for jid in self.model.supports[self.model.frames[frame].parentJoint]:
-                if jid >= 2:
-                    out.add(jid - 2)
-        return sorted(out)
+        return sorted(set(self.leg_chain("left")) | set(self.leg_chain("right")))
 
     def leg_roles(self) -> dict[str, dict[str, int]]:
         """Per side, the actuated-joint indices of hip roll and pitch, knee, and ankle pitch and
         roll, found by axis along the chain from the pelvis to the sole: the first X and Y
         joints are the hip's, the last Y and X the ankle's, the Y joint between them the knee."""
         out = {}
-        for side, frame in self.foot_frames.items():
-            chain = [j - 2 for j in self.model.supports[self.model.frames[frame].parentJoint] if j >= 2]
+        for side in self.foot_frames:
+            chain = self.leg_chain(side)
             axis = {i: self.model.joints[i + 2].shortname()[-1] for i in chain}
             xs = [i for i in chain if axis[i] == "X"]
             ys = [i for i in chain if axis[i] == "Y"]

@@ -52,8 +52,8 @@ def leg_joints(robot: Robot) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     model = robot.model
     out = {}
     for side in SIDES:
-        chain = [j for j in model.supports[model.frames[robot.foot_frames[side]].parentJoint] if j >= 2]
-        out[side] = (np.array([model.idx_qs[j] for j in chain]), np.array([model.idx_vs[j] for j in chain]))
+        joints = [i + 2 for i in robot.leg_chain(side)]
+        out[side] = (np.array([model.idx_qs[j] for j in joints]), np.array([model.idx_vs[j] for j in joints]))
     return out
 
 
