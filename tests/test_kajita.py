@@ -1,0 +1,168 @@
+"""The Kajita baseline: ZMP preview control of the cart-table, and the whole-body walk built on it."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cocomopl.analysis.feasibility import check_motion
+from cocomopl.baselines.kajita import (
+    KajitaSettings,
+    default_durations,
+    kajita_walk,
+    support_phases,
+    swing_position,
+    zmp_reference,
+)
+from cocomopl.baselines.preview_control import PreviewController
+from cocomopl.dynamics import SIDES, sole_placements
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.robot import Robot
+from cocomopl.synthesis.dynamics_filter import GRAVITY
+
+DT = 0.005
+HEIGHT = 0.85
+SPECS = [StepSpec("start", 0.0, 0.2, "left"), StepSpec("stop", 0.2, 0.0, "right")]
+
+
+@pytest.fixture(scope="module")
+def controller():
+    return PreviewController(DT, HEIGHT)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return Robot("talos")
+
+
+@pytest.fixture(scope="module")
+def walk(robot):
+    return kajita_walk(robot, SPECS, dt=0.025)
+
+
+def test_gains_solve_the_riccati_equation(controller):
+    A, B, Q, R = controller.augmented_system()
+    P = controller.riccati
+    BPB = R + B.T @ P @ B
+    residual = A.T @ P @ A - P - A.T @ P @ B @ np.linalg.solve(BPB, B.T @ P @ A) + Q
+    assert np.abs(residual).max() < 1e-6 * np.abs(P).max()
+    gain = np.linalg.solve(BPB, B.T @ P @ A)[0]
+    assert np.allclose(
+        gain, np.concatenate([controller.gain_error, controller.gain_state])
+    )
+    closed_loop = A - B @ gain[None, :]
+    assert np.abs(np.linalg.eigvals(closed_loop)).max() < 1.0
+    assert len(controller.gain_preview) == round(1.6 / DT)
+
+
+def test_com_converges_to_a_constant_reference(controller):
+    reference = np.tile([0.05, -0.03], (int(3.0 / DT), 1))
+    com, com_vel, com_acc, zmp = controller.track(reference, com_start=np.zeros(2))
+    assert np.allclose(com[-1], reference[-1], atol=1e-4)
+    assert np.abs(com_vel[-1]).max() < 1e-3
+    assert np.allclose(zmp, com - HEIGHT / GRAVITY * com_acc)
+
+
+def test_zmp_tracks_a_step_after_the_preview(controller):
+    n, jump = int(5.0 / DT), int(2.0 / DT)
+    reference = np.zeros((n, 2))
+    reference[jump:] = [0.1, -0.08]
+    com, _, _, zmp = controller.track(reference)
+    error = np.abs(zmp - reference)
+    # the preview moves the CoM ahead of the step, so the ZMP deviates far less than the step
+    assert error.max() < 0.5 * np.abs(reference[-1]).min()
+    assert error[jump + int(0.5 / DT) :].max() < 1e-3
+    assert com[jump - 1, 0] > 0.01  # anticipation: the CoM moved before the step
+    assert np.allclose(com[-1], reference[-1], atol=1e-3)
+
+
+def test_swing_position_is_smooth_and_clears_the_ground():
+    start, end = np.array([0.0, 0.1, 0.0]), np.array([0.3, 0.1, 0.0])
+    s = np.linspace(0.0, 1.0, 201)
+    path = np.array([swing_position(start, end, x, 0.05) for x in s])
+    assert np.allclose(path[0], start) and np.allclose(path[-1], end)
+    assert np.isclose(path[:, 2].max(), 0.05) and path[:, 2].min() >= 0.0
+    velocity = np.gradient(path, s, axis=0)
+    assert np.abs(velocity[[0, -1]]).max() < 1e-2
+
+
+def test_zmp_reference_is_on_the_stance_sole_in_single_support(robot):
+    phases = support_phases(robot, SPECS, default_durations(SPECS))
+    edges = np.concatenate([[0.0], np.cumsum([p.duration for p in phases])])
+    for p, phase in enumerate(phases):
+        if phase.kind != "ss":
+            continue
+        t = np.linspace(edges[p], edges[p + 1], 5)
+        stance = phase.start[1 - SIDES.index(phase.swing)]
+        zmp = zmp_reference(robot, phases, t)
+        assert np.allclose(zmp[:, 1], stance[1])
+        assert np.all(np.abs(zmp[:, 0] - stance[0]) < robot.sole.front)
+    ends = zmp_reference(robot, phases, edges[[0, -1]])
+    assert np.allclose(ends[:, 1], 0.0, atol=1e-6)
+
+
+def test_durations_must_match_the_phases(robot):
+    with pytest.raises(Error, match="phase durations"):
+        kajita_walk(robot, SPECS, [np.array([0.4, 0.8]), np.array([0.15, 0.8])])
+
+
+def test_unreachable_footsteps_are_refused(robot):
+    too_long = [
+        StepSpec("start", 0.0, 0.55, "left"),
+        StepSpec("stop", 0.55, 0.0, "right"),
+    ]
+    with pytest.raises(Error, match="out of the legs' reach"):
+        kajita_walk(robot, too_long, dt=0.05, settings=KajitaSettings(pelvis_drop=0.0))
+
+
+def test_walk_keeps_the_given_timing_after_a_standing_prelude(walk):
+    durations = np.concatenate(default_durations(SPECS))
+    durations[0] += KajitaSettings().prelude
+    spans = [walk.t[last] - walk.t[first] for _, first, last in walk.phases]
+    assert np.allclose(spans, durations)
+    assert [kind for kind, _, _ in walk.phases] == ["ds", "ss"] * 3 + ["ds"]
+    assert np.abs(walk.v[0]).max() < 1e-2  # it starts from rest
+
+
+def test_stance_soles_stay_on_the_footsteps(robot, walk):
+    phases = support_phases(robot, SPECS, default_durations(SPECS))
+    planned = {tuple(np.round(p.end[j], 6)) for p in phases for j in range(2)}
+    soles = sole_placements(robot, walk.q)
+    for k in range(walk.n):
+        for j in range(2):
+            if walk.contact[k, j]:
+                nearest = min(
+                    np.linalg.norm(soles[k, j] - np.array(f)) for f in planned
+                )
+                assert nearest < 1e-3
+    # the walk ends with the feet together, as far forward as the steps took them
+    assert np.allclose(soles[-1, :, 0], 0.2 + 0.2, atol=1e-3)
+    pin_data = robot.model.createData()
+    for q in walk.q[::10]:
+        pin.framesForwardKinematics(robot.model, pin_data, q)
+        for side in SIDES:
+            assert np.allclose(
+                pin_data.oMf[robot.foot_frames[side]].rotation, np.eye(3), atol=1e-3
+            )
+
+
+def test_swing_sole_clears_the_ground(robot, walk):
+    soles = sole_placements(robot, walk.q)
+    for kind, first, last in walk.phases:
+        if kind == "ss":
+            air = np.flatnonzero(~walk.contact[first + 1])[0]
+            assert soles[first : last + 1, air, 2].max() > 0.04
+
+
+def test_com_follows_the_preview_and_zmp_stays_in_the_support(robot, walk):
+    assert walk.meta["producer"] == "kajita"
+    assert walk.meta["com_error_m"] < 1e-3
+    assert walk.meta["sole_error_m"] < 1e-3
+    report = check_motion(robot, walk, friction=1.0)
+    assert report["inverse_dynamics_residual"] < 1e-6
+    assert report["zmp_margin"] > 0.0
+    assert report["torque_ratio"] < 1.0
+    assert report["stance_foot_slip"] < 1e-3
+    # the touchdown time appears twice, pre- and post-impact, with the same configuration
+    assert np.all(walk.t[walk.impacts] == walk.t[walk.impacts + 1])
+    assert np.allclose(walk.q[walk.impacts], walk.q[walk.impacts + 1])
