@@ -350,6 +350,23 @@ def cmd_walk(args) -> int:
     return 1 if payload["fell"] else 0
 
 
+def cmd_reproduce(args) -> int:
+    from cocomopl.pipeline import reproduce_report
+
+    payload = reproduce_report(Path(args.out), _model_path(args.model), progress=not args.json)
+    lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
+    lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
+    lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
+    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force rate RMS':>15s} {'ZMP RMS (m)':>12s}")
+    for name, m in payload["metrics"].items():
+        zmp = "-" if m["zmp_rms_error"] is None else f"{m['zmp_rms_error']:.4f}"
+        lines.append(f"{name:12s} {m['fell']!s:>5s} {m['peak_force_over_weight']:9.2f} {m['force_rate_rms']:15.0f} {zmp:>12s}")
+    lines.append(f"MP contact forces smoother than Kajita's: {payload['mp_smoother_than_kajita']}")
+    lines.append(f"M_opt solved in {payload['m_opt_solve_s']:.0f} s; report in {args.out}/ ({payload['wall_time_s']:.0f} s)")
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from cocomopl import __version__
 
@@ -428,6 +445,12 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
     walk.add_argument("--json", action="store_true", help="print one JSON object")
     walk.set_defaults(func=cmd_walk)
+
+    reproduce = sub.add_parser("reproduce", help="the paper's experiment: M_gen vs M_opt vs Kajita, simulated; Table I, Figs. 6, 8, 9")
+    reproduce.add_argument("--out", default="cocomopl-reproduce", help="report folder (default: %(default)s)")
+    reproduce.add_argument("--model", help="model file (default: the bundled one)")
+    reproduce.add_argument("--json", action="store_true", help="print one JSON object")
+    reproduce.set_defaults(func=cmd_reproduce)
 
     simulate = sub.add_parser("simulate", help="run a motion in MuJoCo with joint position control and measure it")
     simulate.add_argument("file", help="motion HDF5 (e.g. from 'cocomopl generate')")
