@@ -9,6 +9,7 @@ import pinocchio as pin
 from cocomopl.robot import Robot
 
 SIDES = ("left", "right")
+GRAVITY = 9.81  # m/s^2
 
 
 def sole_placements(robot: Robot, q: np.ndarray) -> np.ndarray:

@@ -12,17 +12,18 @@ is compared with its reference after aligning their first samples: the simulator
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 
 from cocomopl.analysis.feasibility import polygon_margin, support_polygon
-from cocomopl.dynamics import pelvis_placements, sole_placements
+from cocomopl.dynamics import GRAVITY, pelvis_placements, sole_placements
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 from cocomopl.sim.rollout import FALL_HEIGHT_RATIO, FALL_TILT
 
-GRAVITY = 9.81  # m/s^2
 # Width (s) of the moving average applied to contact forces before differentiating them.
 # A simulator's forces chatter from one 1 kHz step to the next and spike for a single
 # sample at touchdown, so their raw rate measures the integrator more than the motion.
@@ -31,6 +32,23 @@ FORCE_FILTER_S = 0.02
 # A sole pushing with less than this fraction of the body weight is not counted as a
 # stance foot for slip: while the foot rolls off or lands it may move legitimately.
 SLIP_FORCE_RATIO = 0.05
+
+
+def truncated(motion: Motion, seconds: float) -> Motion:
+    """The first ``seconds`` of ``motion``: its samples with ``t - t[0] <= seconds`` (all
+    of them if it is shorter), impacts, phases and steps cut to match."""
+    n = max(int(np.searchsorted(motion.t - motion.t[0], seconds + 1e-9, side="right")), 1)
+    if n == motion.n:
+        return motion
+    starts = motion.step_starts < n
+    return dataclasses.replace(
+        motion,
+        **{key: getattr(motion, key)[:n] for key in ("t", "q", "v", "tau", "wrenches", "contact", "zmp")},
+        impacts=motion.impacts[motion.impacts < n],
+        phases=[(kind, first, min(last, n - 1)) for kind, first, last in motion.phases if first < n],
+        steps=[step for step, kept in zip(motion.steps, starts) if kept],
+        step_starts=motion.step_starts[starts],
+    )
 
 
 def _joint_columns(motion: Motion, joints: list[str] | None) -> list[int]:
@@ -259,7 +277,10 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
 
     Force rates are of the forces smoothed over ``FORCE_FILTER_S`` (:func:`force_rates`);
     ``max_force_rate_raw`` is without smoothing.  Per-foot values are the larger of the two
-    feet.  Entries that need a reference are None without one.
+    feet.  Entries that need a reference are None without one.  With a reference, the
+    torque means are over its duration only (:func:`truncated`): a rollout goes on standing
+    after the motion ends, and those standing torques would dilute a mean per second;
+    everything else, a fall or slip while standing included, is over the whole motion.
 
     Returns
     -------
@@ -269,11 +290,12 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     ``end_balance_margin_m``, and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
     ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
     """
+    walked = measured if reference is None else truncated(measured, reference.duration)
     out = {
         "fell": fell(robot, measured),
         "duration_s": measured.duration,
-        "mean_torque": mean_torque(measured),
-        "rms_torque": rms_torque(measured),
+        "mean_torque": mean_torque(walked),
+        "rms_torque": rms_torque(walked),
         "peak_force_over_weight": float(peak_force_over_weight(measured, robot.mass).max()),
         "max_force_rate": float(max_force_rate(measured).max()),
         "max_force_rate_raw": float(max_force_rate(measured, None).max()),

@@ -12,7 +12,6 @@ result is a :class:`Motion` like any other and can be checked against its own cl
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
-from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -29,7 +28,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import leg_joints, place_legs
-from cocomopl.synthesis.world import _ground_position, _phase_plan, footsteps
+from cocomopl.synthesis.world import footsteps, ground_position, phase_plan
 
 STANDING_ITERATIONS = (
     10  # pelvis shifts to bring the CoM of the first posture above its target
@@ -91,12 +90,6 @@ class SupportPhase:
     step: int
 
 
-class _SpecOnly(NamedTuple):
-    """Stands in for a PredictedStep where only its spec is read (footsteps, phase plan)."""
-
-    spec: StepSpec
-
-
 def default_durations(
     specs: list[StepSpec],
     double_support: float = 0.15,
@@ -133,20 +126,19 @@ def support_phases(
     Error
         If a step's durations do not match its phases or are not positive.
     """
-    steps = [_SpecOnly(spec) for spec in specs]
     out = []
     for k, (step, feet, times) in enumerate(
-        zip(steps, footsteps(robot, steps), durations)
+        zip(specs, footsteps(robot, specs), durations)
     ):
-        plan = _phase_plan(step)
+        plan = phase_plan(step)
         times = np.asarray(times, dtype=float)
         if times.shape != (len(plan),) or not np.all(times > 0):
             raise Error(
-                f"step {k} ({step.spec.name}) needs {len(plan)} positive phase durations, got {times.tolist()}"
+                f"step {k} ({step.name}) needs {len(plan)} positive phase durations, got {times.tolist()}"
             )
         for p, ((kind, swing), duration) in enumerate(zip(plan, times)):
             start, end = (
-                np.array([_ground_position(feet, plan, side, i) for side in SIDES])
+                np.array([ground_position(feet, plan, side, i) for side in SIDES])
                 for i in (p, p + 1)
             )
             out.append(SupportPhase(kind, float(duration), start, end, swing, k))

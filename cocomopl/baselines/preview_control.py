@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
-from cocomopl.synthesis.dynamics_filter import GRAVITY
+from cocomopl.dynamics import GRAVITY
 
 
 class PreviewController:

@@ -113,7 +113,7 @@ def simulate(
     -------
     Rollout with the measured :class:`Motion` (time 0 = the reference's first sample)
     """
-    model, robot = sim.mj, sim.robot
+    model = sim.mj
     data = mujoco.MjData(model)
     reference = _reference_joints(motion)
     t0 = float(motion.t[0])

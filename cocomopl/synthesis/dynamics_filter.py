@@ -25,6 +25,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
 from cocomopl.dynamics import (
+    GRAVITY,
     SIDES,
     inverse_dynamics_with_contacts,
     sole_placements,
@@ -32,7 +33,6 @@ from cocomopl.dynamics import (
 )
 from cocomopl.robot import Robot
 
-GRAVITY = 9.81
 PASSES = 6
 RELAXATION = 0.5  # fraction of the cart-table correction applied per pass: a full step overshoots
 # relative weight of the correction's size and of the rest conditions at both ends: small

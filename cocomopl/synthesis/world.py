@@ -15,20 +15,19 @@ import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
 from cocomopl.dynamics import SIDES, inverse_dynamics_with_contacts
-from cocomopl.motion import Motion
+from cocomopl.motion import Motion, StepSpec
 from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter
 
 
-def footsteps(robot: Robot, steps: list[PredictedStep]) -> list[dict]:
+def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
     """Where each sole stands at each step's start and end, world frame (x forward, z up)."""
     y = foot_separation(robot) / 2
     feet = {"left": np.array([0.0, y, 0.0]), "right": np.array([0.0, -y, 0.0])}
     out = []
-    for step in steps:
-        spec = step.spec
+    for spec in specs:
         start = {k: v.copy() for k, v in feet.items()}
         stance = OTHER[spec.swing_side]
         landing = feet[stance][0] + (spec.start_length if spec.kind == "stop" else spec.end_length)
@@ -39,18 +38,18 @@ def footsteps(robot: Robot, steps: list[PredictedStep]) -> list[dict]:
     return out
 
 
-def _phase_plan(step: PredictedStep) -> list[tuple[str, str | None]]:
+def phase_plan(spec: StepSpec) -> list[tuple[str, str | None]]:
     """(phase kind, foot in the air or None) per phase of a step."""
-    swing, stance = step.spec.swing_side, OTHER[step.spec.swing_side]
+    swing, stance = spec.swing_side, OTHER[spec.swing_side]
     plan = [("ds", None), ("ss", swing)]
-    if step.spec.kind == "stop":
+    if spec.kind == "stop":
         plan += [("ds", None), ("ss", stance), ("ds", None)]
     return plan
 
 
 def _segments(step: PredictedStep) -> list[tuple[int, int]]:
     """(first, last) phases of each impact-free part: a touchdown ends every single support."""
-    plan, out, first = _phase_plan(step), [], 0
+    plan, out, first = phase_plan(step.spec), [], 0
     for p, (kind, _) in enumerate(plan):
         if kind == "ss" or p == len(plan) - 1:
             out.append((first, p))
@@ -97,7 +96,7 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
     carried the previous phase to the one that carries the next, so the pelvis never jumps.
     """
     edges = step.phase_edges
-    plan = _phase_plan(step)
+    plan = phase_plan(step.spec)
     # before the step the previous step's stance foot, this step's swing foot, carried the robot
     previous_air = None if first else OTHER[step.spec.swing_side]
     out = np.zeros((len(t), 2))
@@ -113,7 +112,7 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
     return out
 
 
-def _ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
+def ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
     """Where a sole stands in a phase: its start position until it has swung, then its end."""
     swung = any(air == side for _, air in plan[:phase])
     return feet["end" if swung else "start"][side]
@@ -123,13 +122,13 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds."""
     model, data = robot.model, robot.model.createData()
     n_joints = len(robot.joint_names)
-    feet_per_step = footsteps(robot, steps)
+    feet_per_step = footsteps(robot, [s.spec for s in steps])
     ts, qs, zmps, contacts, phases, starts, impacts, ground = [], [], [], [], [], [], [], []
     offset, count = 0.0, 0
     for k, (step, feet) in enumerate(zip(steps, feet_per_step)):
         t, values, phase = _sample_step(step, dt)
         weights = _anchor_weights(step, t, phase, first=(k == 0))
-        plan = _phase_plan(step)
+        plan = phase_plan(step.spec)
         joints, zmp_local, rpy = values[:, :n_joints], values[:, n_joints : n_joints + 3], values[:, n_joints + 3 :]
         q = np.empty((len(t), model.nq))
         zmp = np.empty((len(t), 3))
@@ -144,13 +143,13 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
             for s, side in enumerate(SIDES):
                 if weights[j, s] > 0:
                     sole = data.oMf[robot.foot_frames[side]].translation  # in the pelvis frame
-                    position += weights[j, s] * (_ground_position(feet, plan, side, phase[j]) - R @ sole)
+                    position += weights[j, s] * (ground_position(feet, plan, side, phase[j]) - R @ sole)
             q[j, :3] = position
             q[j, 3:7] = pin.Quaternion(R).coeffs()
             zmp[j] = position + R @ zmp_local[j]
         contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
         ground += [
-            [pin.SE3(np.eye(3), _ground_position(feet, plan, side, p)) if c else None for side, c in zip(SIDES, row)]
+            [pin.SE3(np.eye(3), ground_position(feet, plan, side, p)) if c else None for side, c in zip(SIDES, row)]
             for p, row in zip(phase, contact)
         ]
         for p in range(len(plan)):
