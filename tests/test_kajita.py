@@ -14,11 +14,10 @@ from cocomopl.baselines.kajita import (
     zmp_reference,
 )
 from cocomopl.baselines.preview_control import PreviewController
-from cocomopl.dynamics import SIDES, sole_placements
+from cocomopl.dynamics import GRAVITY, SIDES, sole_placements
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.robot import Robot
-from cocomopl.synthesis.dynamics_filter import GRAVITY
 
 DT = 0.005
 HEIGHT = 0.85
@@ -115,13 +114,15 @@ def test_unreachable_footsteps_are_refused(robot):
         kajita_walk(robot, too_long, dt=0.05, settings=KajitaSettings(pelvis_drop=0.0))
 
 
-def test_walk_keeps_the_given_timing_after_a_standing_prelude(walk):
+def test_walk_keeps_the_given_timing_between_standing_prelude_and_postlude(walk):
     durations = np.concatenate(default_durations(SPECS))
     durations[0] += KajitaSettings().prelude
+    durations[-1] += KajitaSettings().postlude
     spans = [walk.t[last] - walk.t[first] for _, first, last in walk.phases]
     assert np.allclose(spans, durations)
     assert [kind for kind, _, _ in walk.phases] == ["ds", "ss"] * 3 + ["ds"]
     assert np.abs(walk.v[0]).max() < 1e-2  # it starts from rest
+    assert np.abs(walk.v[-1]).max() < 1e-2  # and ends at rest
 
 
 def test_stance_soles_stay_on_the_footsteps(robot, walk):

@@ -53,6 +53,10 @@ class KajitaSettings:
         between the feet: preview control moves the CoM before the ZMP does, so a walk that
         starts from rest needs about the preview horizon to get going (without it, the
         cart-table ZMP of a 0.4 s start overshoots by metres)
+    postlude : standing time added to a walk's final double support, the ZMP reference held
+        between the feet: once the ZMP is there the CoM only closes in at the cart-table's
+        own rate (time constant ``sqrt(z_c/g)``, about 0.3 s), so without it the walk ends
+        with the CoM still moving sideways at about 0.1 m/s
     pelvis_drop : how much lower than in the reference posture the pelvis walks, m: bent
         knees let the legs reach long steps (TALOS at the reference height cannot land a
         0.39 m step)
@@ -65,6 +69,7 @@ class KajitaSettings:
     control_dt: float = 0.005
     ik_iterations: int = 2
     prelude: float = 1.6
+    postlude: float = 1.0
     pelvis_drop: float = 0.04
 
 
@@ -151,15 +156,21 @@ def _sole_centre(robot: Robot, position: np.ndarray) -> np.ndarray:
 
 
 def zmp_reference(
-    robot: Robot, phases: list[SupportPhase], t: np.ndarray, hold: float = 0.0
+    robot: Robot,
+    phases: list[SupportPhase],
+    t: np.ndarray,
+    hold: float = 0.0,
+    settle: float = 0.0,
 ) -> np.ndarray:
     """Reference ZMP (n, 2) at times ``t``: on the stance sole, between the soles at rest.
 
     Piecewise linear between the phase edges; a double support moves it from the sole that
     carried the phase before to the one that carries the phase after.  It stays between the
-    soles for the first ``hold`` seconds of the first phase (a double support longer than that).
+    soles for the first ``hold`` seconds of the first phase (a double support longer than that)
+    and reaches its last point ``settle`` seconds before the last phase ends.
     """
     edges = np.concatenate([[0.0, hold], np.cumsum([p.duration for p in phases])])
+    edges[-1] -= settle
     between = 0.5 * (
         _sole_centre(robot, phases[0].start[0])
         + _sole_centre(robot, phases[0].start[1])
@@ -243,8 +254,12 @@ def _preview_com(
     t: np.ndarray,
     com_height: float,
     settings: KajitaSettings,
+    settle: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Preview CoM (n, 2), starting at rest above the reference, and reference ZMP (n, 2) at times ``t``."""
+    """Preview CoM (n, 2), starting at rest above the reference, and reference ZMP (n, 2) at times ``t``.
+
+    The reference holds between the feet over the prelude and the last ``settle`` seconds.
+    """
     controller = PreviewController(
         settings.control_dt,
         com_height,
@@ -254,10 +269,10 @@ def _preview_com(
     )
     grid = np.arange(0.0, t[-1] + 1.5 * settings.control_dt, settings.control_dt)
     com, com_vel, _, _ = controller.track(
-        zmp_reference(robot, phases, grid, settings.prelude)
+        zmp_reference(robot, phases, grid, settings.prelude, settle)
     )
     return CubicHermiteSpline(grid, com, com_vel, axis=0)(t), zmp_reference(
-        robot, phases, t, settings.prelude
+        robot, phases, t, settings.prelude, settle
     )
 
 
@@ -321,7 +336,8 @@ def kajita_motion(
     """The preview-control walk through given support phases, a world-frame :class:`Motion`.
 
     ``specs`` only label the steps (``Motion.steps``); footsteps and timing are the phases',
-    the first (a double support) lengthened by ``settings.prelude``.
+    the first (a double support) lengthened by ``settings.prelude`` and, if the walk ends at
+    rest (in double support), the last by ``settings.postlude``.
     The robot starts in the reference posture with the pelvis ``settings.pelvis_drop``
     lower, upright, its CoM above the ZMP reference's start; the CoM height of that posture
     is the cart-table's.
@@ -332,10 +348,10 @@ def kajita_motion(
         If the legs cannot reach the footsteps at that pelvis height.
     """
     model, data = robot.model, robot.model.createData()
-    phases = [
-        replace(phases[0], duration=phases[0].duration + settings.prelude),
-        *phases[1:],
-    ]
+    settle = settings.postlude if phases[-1].kind == "ds" else 0.0
+    phases = list(phases)
+    phases[0] = replace(phases[0], duration=phases[0].duration + settings.prelude)
+    phases[-1] = replace(phases[-1], duration=phases[-1].duration + settle)
     t, index = _sample_times(phases, dt)
     soles = _sole_targets(phases, t, index, settings.swing_height)
     com_start = zmp_reference(robot, phases, t[:1])[0]
@@ -345,7 +361,7 @@ def kajita_motion(
         robot, crouched, t[:1], soles[:1], com_start[None], STANDING_ITERATIONS
     )[0]
     com_height = float(pin.centerOfMass(model, data, standing)[2])
-    com, zmp_ref = _preview_com(robot, phases, t, com_height, settings)
+    com, zmp_ref = _preview_com(robot, phases, t, com_height, settings, settle)
     q = _whole_body(robot, standing, t, soles, com, settings.ik_iterations)
     reached = sole_placements(robot, q)
     sole_error = np.abs(reached - soles).max(axis=(1, 2))
