@@ -4,6 +4,8 @@ and on one real OC step of the bundled dataset."""
 import dataclasses
 import json
 import re
+import shutil
+import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -93,6 +95,30 @@ def test_mean_torque_of_an_oc_step_ignores_the_touchdown_duplicate(oc_step):
     assert metrics.mean_torque(without_duplicates(oc_step)) == pytest.approx(value, rel=1e-12)
 
 
+def test_summary_means_torques_over_the_reference_span_only(robot):
+    # a rollout stands on after its reference ends; those torques must not dilute the mean
+    reference = synthetic(robot, np.linspace(0.0, 1.0, 41), tau=np.full((41, robot.nu), 3.0))
+    t = np.arange(0.0, 1.5 + 1e-9, 0.005)
+    measured = synthetic(robot, t + 2.0, tau=np.where(t[:, None] < 1.0, 3.0, 100.0) * np.ones(robot.nu))
+    report = metrics.summary(robot, measured, reference)
+    assert report["mean_torque"] == pytest.approx(3.0 / np.sqrt(robot.nu))
+    assert report["mean_torque"] == pytest.approx(metrics.mean_torque(reference))
+    assert report["rms_torque"] == pytest.approx(3.0)
+    assert report["duration_s"] == pytest.approx(1.5)
+    assert metrics.summary(robot, measured)["mean_torque"] > 3.0 / np.sqrt(robot.nu)
+
+
+def test_truncating_an_oc_step_keeps_its_touchdown_whole(oc_step):
+    impact = int(oc_step.impacts[0])
+    touchdown = oc_step.t[impact] - oc_step.t[0]
+    before = metrics.truncated(oc_step, touchdown - 1e-3)
+    assert before.n == impact and len(before.impacts) == 0
+    at = metrics.truncated(oc_step, touchdown)
+    assert at.n == impact + 2 and list(at.impacts) == [impact]  # both duplicates
+    assert all(last < at.n for _, _, last in at.phases)
+    assert metrics.truncated(oc_step, oc_step.duration) is oc_step
+
+
 # ------------------------------------------------------------------ contact forces
 def test_standing_still_with_the_weight_split_carries_half_on_each_foot(robot):
     weight = robot.mass * metrics.GRAVITY
@@ -112,10 +138,30 @@ def test_a_linear_force_ramp_has_its_slope_as_rate(robot):
     np.testing.assert_allclose(metrics.force_rates(motion, None)[:, 0], slope)
     np.testing.assert_allclose(metrics.max_force_rate(motion, None), [slope, 0.0], atol=1e-9)
     np.testing.assert_allclose(metrics.force_rate_rms(motion, None), [slope, 0.0], atol=1e-9)
+    np.testing.assert_allclose(metrics.force_variation(motion, None), [slope * 0.5, 0.0], atol=1e-9)
     # a moving average does not change a ramp's slope (away from the ends, where it is shortened)
     smoothed = metrics.force_rates(motion, 0.02)[:, 0]
     np.testing.assert_allclose(smoothed[5:-5], slope)
     assert metrics.max_force_rate(motion, 0.02)[0] == pytest.approx(slope)
+
+
+def test_force_variation_of_loading_and_unloading_a_foot_twice(robot):
+    # a foot takes the weight W twice, each time overshooting to 1.2 W for 50 ms:
+    # 2 (2 W + 2 * 0.2 W), the plateaus wider than the moving average
+    weight = robot.mass * metrics.GRAVITY
+    load = {0.5: 0, 0.6: 1.2, 0.65: 1.2, 0.75: 1, 1.5: 1, 1.6: 0}
+    times = [t + shift for shift in (0.0, 2.0) for t in load]
+    t = np.arange(0.0, 4.0, 0.005)
+    fz = weight * np.interp(t, times, 2 * list(load.values()))
+    expected = [2 * (2 + 2 * 0.2) * weight, 0.0]
+    motion = synthetic(robot, t, fz=np.column_stack([fz, np.zeros_like(t)]))
+    np.testing.assert_allclose(metrics.force_variation(motion, None), expected, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(metrics.force_variation(motion, 0.02), expected, rtol=1e-9, atol=1e-9)
+    # standing still as long again dilutes the RMS rate, not the variation
+    padded = synthetic(robot, np.arange(0.0, 8.0, 0.005), fz=np.pad(motion.wrenches[:, :, 2], ((0, 800), (0, 0))))
+    np.testing.assert_allclose(metrics.force_variation(padded, None), expected, rtol=1e-9, atol=1e-9)
+    dilution = np.sqrt(motion.duration / padded.duration)
+    assert metrics.force_rate_rms(padded, None)[0] == pytest.approx(metrics.force_rate_rms(motion, None)[0] * dilution)
 
 
 def test_smoothing_bounds_the_rate_of_a_jump_on_any_sample_spacing(robot):
@@ -234,6 +280,7 @@ def test_summary_of_an_oc_step_against_itself_is_json_and_exact(robot, oc_step):
         "tracking_rms_rad",
         "knee_torque_peak",
         "force_rate_rms",
+        "force_variation_over_weight",
     ):
         assert key in report
     assert report["fell"] is False
@@ -302,3 +349,47 @@ def test_html_viewer_embeds_forward_kinematics(robot, oc_step, tmp_path):
     np.testing.assert_allclose(data["soles"][10][0][0], corner, atol=1e-4)
     np.testing.assert_allclose(data["zmp"][10], oc_step.zmp[10, :2], atol=1e-4)
     assert all(0 <= a < len(expected) and 0 <= b < len(expected) for a, b in data["segments"])
+
+
+# A stand-in for the browser: a canvas context that records the drawn points, a clock
+# driven by hand.  Prints the points, the time label and whether playback advanced.
+_BROWSER = r"""
+const html = require("fs").readFileSync(process.argv[1], "utf8");
+const code = html.match(/<script>([\s\S]*?)<\/script>/)[1];
+const drawn = [];
+const context = new Proxy({}, {
+  get: (o, k) => (k in o ? o[k] : (...a) => { if (["moveTo", "lineTo", "arc"].includes(k)) drawn.push(a.slice(0, 2)); }),
+  set: (o, k, v) => { o[k] = v; return true; },
+});
+const elements = {};
+const element = id => ({ value: "1", clientWidth: 800, clientHeight: 600, getContext: () => context,
+  textContent: id === "motion-data" ? html.match(/id="motion-data">([\s\S]*?)<\/script>/)[1] : "" });
+global.document = { getElementById: id => elements[id] || (elements[id] = element(id)) };
+global.window = {}; global.devicePixelRatio = 1;
+const callbacks = [];
+global.requestAnimationFrame = f => callbacks.push(f);
+eval(code);
+callbacks.shift()(0); callbacks.shift()(500);
+const played = elements.time.textContent;
+elements.view.onmousedown({ clientX: 0, clientY: 0 }); window.onmousemove({ clientX: 40, clientY: 20 });
+elements.view.onwheel({ deltaY: 100, preventDefault() {} });
+elements.slider.value = "3"; elements.slider.oninput(); callbacks.shift()(900);
+console.log(JSON.stringify({ drawn, played, scrubbed: elements.time.textContent, button: elements.play.textContent }));
+"""
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="needs Node.js to run the page's script")
+def test_html_viewer_script_draws_plays_and_scrubs(robot, oc_step, tmp_path):
+    path = write_html_viewer(robot, oc_step, tmp_path / "step.html", fps=40.0)
+    result = subprocess.run(
+        ["node", "-e", _BROWSER, str(path)], check=False, capture_output=True, text=True, timeout=30
+    )
+    assert result.returncode == 0, result.stderr
+    out = json.loads(result.stdout)
+    drawn = np.array(out["drawn"], dtype=float)
+    assert len(drawn) > 100 and np.all(np.isfinite(drawn))
+    # the robot stands inside the 800 x 600 canvas
+    figure = drawn[-(robot.model.njoints + 10) :]
+    assert np.all((figure > 0) & (figure < [800, 600]))
+    assert out["played"].startswith("t = 0.500 s (21/")  # 0.5 s of playback at 40 fps
+    assert out["scrubbed"].startswith("t = 0.075 s (4/") and out["button"] == "play"

@@ -168,6 +168,17 @@ def force_rate_rms(motion: Motion, window: float | None = FORCE_FILTER_S) -> np.
     return np.sqrt(np.sum(rates**2 * dt[:, None], axis=0) / dt.sum())
 
 
+def force_variation(motion: Motion, window: float | None = FORCE_FILTER_S) -> np.ndarray:
+    """Total variation ``∫ |dF_z/dt| dt`` of each (left, right) sole's vertical force (2,), N.
+
+    Smoothness that, unlike :func:`force_rate_rms`, does not depend on how long the motion
+    stands still before or after it walks.  A foot loaded and unloaded ``k`` times without
+    overshoot scores ``2 k`` times its peak load; spikes and chatter add twice their height.
+    """
+    rates = force_rates(motion, window)
+    return np.sum(np.abs(rates) * np.diff(motion.t[motion.kept_samples()])[:, None], axis=0)
+
+
 def _aligned(measured: Motion, reference: Motion, values: str, columns: slice) -> tuple[np.ndarray, np.ndarray]:
     """Rows of ``values`` of ``measured`` and of ``reference`` at the measured times, both
     timed from their first samples; only times inside the reference's span."""
@@ -286,7 +297,8 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     -------
     dict with ``fell``, ``duration_s``, ``mean_torque`` (N m s^-½), ``rms_torque`` (N m),
     ``peak_force_over_weight``, ``max_force_rate`` and ``max_force_rate_raw`` (N/s),
-    ``force_rate_rms`` (N/s), ``knee_torque_peak`` (N m), ``foot_slip_m``,
+    ``force_rate_rms`` (N/s), ``force_variation_over_weight`` (:func:`force_variation` over
+    the body weight), ``knee_torque_peak`` (N m), ``foot_slip_m``,
     ``end_balance_margin_m``, and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
     ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
     """
@@ -300,6 +312,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
         "max_force_rate": float(max_force_rate(measured).max()),
         "max_force_rate_raw": float(max_force_rate(measured, None).max()),
         "force_rate_rms": float(force_rate_rms(measured).max()),
+        "force_variation_over_weight": float(force_variation(measured).max() / (robot.mass * GRAVITY)),
         "knee_torque_peak": float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
         "foot_slip_m": foot_slip(robot, measured),
         "end_balance_margin_m": _finite_or_none(end_balance_margin(robot, measured)),

@@ -2,9 +2,11 @@
 
 Each function takes ``{label: Motion}`` -- planned and measured motions of the same walk,
 e.g. ``{"OC planned": ..., "OC simulated": ..., "MP simulated": ...}`` -- and the PNG path,
-and returns the path.  Times are counted from each motion's first sample (a simulated
-motion's time 0 is its reference's first sample).  The first motion is drawn in black as
-the reference; torques and forces, which hold over each sample interval, as steps.
+and returns the path.  Each motion is drawn on its own clock, so align them first: a
+rollout's time 0 is its reference's first sample, so a reference that starts earlier (the
+Kajita baseline's standing prelude, at negative times) needs its rollout shifted by its
+first time.  The first motion is drawn in black as the reference; torques and forces,
+which hold over each sample interval, as steps.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ def plot_zmp_comparison(motions: dict[str, Motion], path: Path) -> Path:
     fig, axes = pyplot().subplots(2, 1, figsize=(10, 6), sharex=True)
     for label, motion in motions.items():
         for axis, ax in enumerate(axes):
-            ax.plot(motion.t - motion.t[0], motion.zmp[:, axis], color=colours[label], lw=1, label=label)
+            ax.plot(motion.t, motion.zmp[:, axis], color=colours[label], lw=1, label=label)
     for ax, name in zip(axes, "xy"):
         ax.set_ylabel(f"ZMP {name} (m)")
     axes[0].set_title("ZMP, world frame")
@@ -46,7 +48,7 @@ def plot_force_comparison(robot: Robot, motions: dict[str, Motion], path: Path) 
     for ax, (label, motion) in zip(axes[:, 0], motions.items()):
         forces = vertical_forces(motion)
         for j, (side, colour) in enumerate(zip(SIDES, ("tab:blue", "tab:red"))):
-            ax.step(motion.t - motion.t[0], forces[:, j], where="post", color=colour, lw=1, label=f"{side} foot")
+            ax.step(motion.t, forces[:, j], where="post", color=colour, lw=1, label=f"{side} foot")
         ax.axhline(weight, color="k", ls="--", lw=1, label=f"body weight ({weight:.0f} N)")
         ax.set_ylabel("force (N)")
         ax.set_title(label, fontsize=10)
@@ -62,14 +64,7 @@ def plot_knee_torque_comparison(robot: Robot, motions: dict[str, Motion], path: 
     fig, axes = pyplot().subplots(2, 1, figsize=(10, 6), sharex=True)
     for ax, side in zip(axes, SIDES):
         for label, motion in motions.items():
-            ax.step(
-                motion.t - motion.t[0],
-                motion.tau[:, knees[side]],
-                where="post",
-                color=colours[label],
-                lw=1,
-                label=label,
-            )
+            ax.step(motion.t, motion.tau[:, knees[side]], where="post", color=colours[label], lw=1, label=label)
         ax.set_ylabel("torque (N m)")
         ax.set_title(f"{side} knee ({robot.joint_names[knees[side]]})", fontsize=10)
     axes[0].legend(fontsize=8)
@@ -87,7 +82,7 @@ def plot_leg_joint_comparison(robot: Robot, motions: dict[str, Motion], path: Pa
         for row, i in enumerate(legs[side]):
             ax = axes[row, column]
             for label, motion in motions.items():
-                ax.plot(motion.t - motion.t[0], motion.q[:, 7 + i], color=colours[label], lw=1, label=label)
+                ax.plot(motion.t, motion.q[:, 7 + i], color=colours[label], lw=1, label=label)
             ax.set_title(robot.joint_names[i], fontsize=9)
             ax.set_ylabel("rad")
     axes[0, 0].legend(fontsize=7)
