@@ -353,16 +353,40 @@ def cmd_walk(args) -> int:
 def cmd_reproduce(args) -> int:
     from cocomopl.pipeline import reproduce_report
 
-    payload = reproduce_report(Path(args.out), _model_path(args.model), progress=not args.json)
+    payload = reproduce_report(Path(args.out), _model_path(args.model), _dataset_path(args.data), progress=not args.json)
     lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
     lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
-    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force rate RMS':>15s} {'ZMP RMS (m)':>12s}")
+    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force variation/W':>18s} {'ZMP RMS (m)':>12s}")
     for name, m in payload["metrics"].items():
         zmp = "-" if m["zmp_rms_error"] is None else f"{m['zmp_rms_error']:.4f}"
-        lines.append(f"{name:12s} {m['fell']!s:>5s} {m['peak_force_over_weight']:9.2f} {m['force_rate_rms']:15.0f} {zmp:>12s}")
+        lines.append(f"{name:12s} {m['fell']!s:>5s} {m['peak_force_over_weight']:9.2f} "
+                     f"{m['force_variation_over_weight']:18.1f} {zmp:>12s}")
     lines.append(f"MP contact forces smoother than Kajita's: {payload['mp_smoother_than_kajita']}")
     lines.append(f"M_opt solved in {payload['m_opt_solve_s']:.0f} s; report in {args.out}/ ({payload['wall_time_s']:.0f} s)")
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
+def cmd_export(args) -> int:
+    from cocomopl.export.safety import check_safe
+    from cocomopl.export.seqplay import export_motion
+    from cocomopl.motion_file import read_motion, writable_folder
+    from cocomopl.robot import Robot
+
+    motion = read_motion(args.file, args.motion)
+    prefix = Path(args.out)
+    if prefix.is_dir():
+        raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
+    writable_folder(prefix.parent, f"the folder of --out {prefix}")
+    robot = Robot(motion.robot)
+    reasons = check_safe(robot, motion)
+    if reasons and not args.force:
+        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
+        raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}; --force exports anyway")
+    files = export_motion(robot, motion, args.format, prefix)
+    payload = {"files": [str(f) for f in files], "format": args.format, "unsafe": reasons, "forced": bool(reasons)}
+    lines = [f"wrote {f}" for f in files] + [f"warning (--force): {r}" for r in reasons]
     _emit(args, payload, "\n".join(lines))
     return 0
 
@@ -449,6 +473,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce = sub.add_parser("reproduce", help="the paper's experiment: M_gen vs M_opt vs Kajita, simulated; Table I, Figs. 6, 8, 9")
     reproduce.add_argument("--out", default="cocomopl-reproduce", help="report folder (default: %(default)s)")
     reproduce.add_argument("--model", help="model file (default: the bundled one)")
+    reproduce.add_argument("--data", help="OC dataset for M_opt's steps and gait states (default: the bundled one)")
     reproduce.add_argument("--json", action="store_true", help="print one JSON object")
     reproduce.set_defaults(func=cmd_reproduce)
 
@@ -459,6 +484,15 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
     simulate.add_argument("--json", action="store_true", help="print one JSON object")
     simulate.set_defaults(func=cmd_simulate)
+
+    export = sub.add_parser("export", help="write a motion for a robot (OpenHRP seqplay or CSV), behind a safety gate")
+    export.add_argument("file", help="motion HDF5")
+    export.add_argument("--motion", help="motion name (needed when the file holds several)")
+    export.add_argument("--format", choices=("seqplay", "csv"), required=True, help="seqplay: .pos .zmp .hip .waist at 5 ms")
+    export.add_argument("--out", required=True, help="output file prefix, e.g. out/walk -> out/walk.pos ...")
+    export.add_argument("--force", action="store_true", help="export even if the safety gate refuses the motion")
+    export.add_argument("--json", action="store_true", help="print one JSON object")
+    export.set_defaults(func=cmd_export)
 
     plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
     plot.add_argument("file")

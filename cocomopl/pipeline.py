@@ -132,8 +132,9 @@ M_GEN = (0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15)  # the paper's ge
 M_OPT = (0.15, 0.15, 0.25, 0.35, 0.40, 0.35, 0.25, 0.15, 0.15)  # its OC counterpart (400 for 390)
 
 
-def reproduce_report(out_dir: Path, model_path: str | Path, progress: bool = False) -> dict:
+def reproduce_report(out_dir: Path, model_path: str | Path, dataset_path: str | Path, progress: bool = False) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_opt from chained OCPs
+    (the steps of the dataset at ``dataset_path``, and the transitions it lacks solved here)
     and the Kajita baseline on M_gen's footsteps and timing, all three simulated with the
     stabilizer; the analogue of Table I (mean torques) and of Figs. 6, 8 and 9.
 
@@ -148,7 +149,7 @@ def reproduce_report(out_dir: Path, model_path: str | Path, progress: bool = Fal
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.baselines.kajita import kajita_walk
     from cocomopl.motion_file import writable_folder, write_json, write_motions
-    from cocomopl.ocp.models import OCPSettings
+    from cocomopl.motion_file import read_motions
     from cocomopl.ocp.sequence import solve_sequence
 
     started = time.perf_counter()
@@ -156,7 +157,8 @@ def reproduce_report(out_dir: Path, model_path: str | Path, progress: bool = Fal
     walk = generate_walk(list(M_GEN), model_path)
     robot = walk.robot
     solve_started = time.perf_counter()
-    m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), OCPSettings(), progress=progress)
+    dataset, attrs = read_motions(dataset_path)
+    m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
     kajita = kajita_walk(robot, [s.spec for s in walk.steps], [np.diff(s.phase_edges) for s in walk.steps], dt=0.025)
     # the preview controller needs a standing prelude: align its walking with the others'

@@ -1,0 +1,27 @@
+"""M_opt's machinery: a walk of chained step OCPs, reusing a dataset's steps."""
+
+import numpy as np
+import pytest
+
+from cocomopl.analysis.feasibility import check_motion
+from cocomopl.dynamics import sole_placements
+from cocomopl.motion_file import read_motions
+from cocomopl.ocp.sequence import solve_sequence
+from cocomopl.synthesis.sequence import sequence_specs
+from tests.conftest import SMALL, SMALL_LENGTH
+
+
+def test_a_chained_walk_is_one_consistent_motion_on_its_footsteps(robot, small_dataset):
+    motions, attrs = read_motions(small_dataset)
+    specs = sequence_specs([SMALL_LENGTH] * 3)  # start, cyclic, stop: left, right, left swing
+    walk = solve_sequence(robot, specs, motions, attrs["settings"])
+    assert [s.name for s in walk.steps] == [s.name for s in specs]
+    assert np.all(np.diff(walk.t) >= 0) and len(walk.step_starts) == 3
+    report = check_motion(robot, walk, SMALL.friction)
+    assert report["inverse_dynamics_residual"] < 1e-6  # also across the junctions
+    assert report["zmp_margin"] > 0
+    # every step starts where the one before ended: no jump in the configuration
+    assert np.abs(np.diff(walk.q[:, :3], axis=0)).max() < 0.05
+    # the walk ends with the feet side by side, three step lengths ahead
+    soles = sole_placements(robot, walk.q[-1:])[0]
+    assert soles[:, 0] == pytest.approx([3 * SMALL_LENGTH] * 2, abs=5e-3)
