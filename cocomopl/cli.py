@@ -378,12 +378,12 @@ def cmd_export(args) -> int:
     prefix = Path(args.out)
     if prefix.is_dir():
         raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
-    writable_folder(prefix.parent, f"the folder of --out {prefix}")
     robot = Robot(motion.robot)
     reasons = check_safe(robot, motion)
     if reasons and not args.force:
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}; --force exports anyway")
+    writable_folder(prefix.parent, f"the folder of --out {prefix}")
     files = export_motion(robot, motion, args.format, prefix)
     payload = {"files": [str(f) for f in files], "format": args.format, "unsafe": reasons, "forced": bool(reasons)}
     lines = [f"wrote {f}" for f in files] + [f"warning (--force): {r}" for r in reasons]

@@ -8,7 +8,7 @@ from cocomopl.dynamics import sole_placements
 from cocomopl.motion_file import read_motions
 from cocomopl.ocp.sequence import solve_sequence
 from cocomopl.synthesis.sequence import sequence_specs
-from tests.conftest import SMALL, SMALL_LENGTH
+from conftest import SMALL, SMALL_LENGTH
 
 
 def test_a_chained_walk_is_one_consistent_motion_on_its_footsteps(robot, small_dataset):

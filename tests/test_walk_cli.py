@@ -5,7 +5,7 @@ import json
 import h5py
 import pytest
 
-from tests.test_cli_errors import assert_one_line_error, run_cli
+from test_cli_errors import assert_one_line_error, run_cli
 
 
 @pytest.fixture(scope="module")
