@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 
 SIDES = ("left", "right")
@@ -118,3 +119,39 @@ def inverse_dynamics_with_contacts(
             wrenches[k, sides] = f.reshape(len(sides), 6)
         tau[last], wrenches[last] = tau[last - 1], wrenches[last - 1]
     return v, tau, wrenches
+
+
+def kinematic_motion(
+    robot: Robot,
+    t: np.ndarray,
+    q: np.ndarray,
+    contact: np.ndarray,
+    impacts: np.ndarray,
+    phases: list,
+    steps: list,
+    step_starts: np.ndarray,
+    meta: dict,
+    zmp: np.ndarray | None = None,
+) -> Motion:
+    """The :class:`Motion` of a kinematic walk: velocities, torques and contact wrenches by
+    :func:`inverse_dynamics_with_contacts`; ``zmp`` as given (a reference) or, by default,
+    the ZMP of those wrenches."""
+    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
+    if zmp is None:
+        zmp = zmp_from_wrenches(sole_placements(robot, q), wrenches)
+    return Motion(
+        t=t,
+        q=q,
+        v=v,
+        tau=tau,
+        wrenches=wrenches,
+        contact=contact,
+        zmp=zmp,
+        phases=phases,
+        impacts=np.asarray(impacts, dtype=int),
+        steps=list(steps),
+        step_starts=np.asarray(step_starts, dtype=int),
+        joint_names=list(robot.joint_names),
+        robot=robot.name,
+        meta=meta,
+    )

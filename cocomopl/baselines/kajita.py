@@ -18,12 +18,7 @@ import pinocchio as pin
 from scipy.interpolate import CubicHermiteSpline
 
 from cocomopl.baselines.preview_control import PreviewController
-from cocomopl.dynamics import (
-    SIDES,
-    inverse_dynamics_with_contacts,
-    sole_placements,
-    zmp_from_wrenches,
-)
+from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
@@ -373,40 +368,22 @@ def kajita_motion(
         )
     contact = np.array([[phases[p].swing != side for side in SIDES] for p in index])
     impacts = np.flatnonzero(np.diff(t) == 0)
-    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
     coms = np.array([pin.centerOfMass(model, data, qk) for qk in q])
-    zmp = zmp_from_wrenches(reached, wrenches)
     step_of = np.array([phases[p].step for p in index])
-    return Motion(
-        t=t,
-        q=q,
-        v=v,
-        tau=tau,
-        wrenches=wrenches,
-        contact=contact,
-        zmp=zmp,
-        phases=_phase_ranges(phases, index),
-        impacts=impacts,
-        steps=list(specs),
-        step_starts=np.array(
-            [np.flatnonzero(step_of == k)[0] for k in range(len(specs))], dtype=int
-        ),
-        joint_names=list(robot.joint_names),
-        robot=robot.name,
-        meta={
-            "producer": "kajita",
-            **asdict(settings),
-            "com_height_m": com_height,
-            "com_height_range_m": float(np.ptp(coms[:, 2])),
-            "pelvis_height_m": float(standing[2]),
-            "sole_error_m": float(sole_error.max()),
-            "com_error_m": float(np.abs(coms[:, :2] - com).max()),
-            # the cart-table neglects angular momentum and the legs' swing: the price of the baseline
-            "zmp_reference_rms_m": float(
-                np.sqrt(np.nanmean(np.sum((zmp[:, :2] - zmp_ref) ** 2, axis=1)))
-            ),
-        },
-    )
+    starts = [np.flatnonzero(step_of == k)[0] for k in range(len(specs))]
+    motion = kinematic_motion(robot, t, q, contact, impacts, _phase_ranges(phases, index), specs, starts, meta={})
+    motion.meta = {
+        "producer": "kajita",
+        **asdict(settings),
+        "com_height_m": com_height,
+        "com_height_range_m": float(np.ptp(coms[:, 2])),
+        "pelvis_height_m": float(standing[2]),
+        "sole_error_m": float(sole_error.max()),
+        "com_error_m": float(np.abs(coms[:, :2] - com).max()),
+        # the cart-table neglects angular momentum and the legs' swing: the price of the baseline
+        "zmp_reference_rms_m": float(np.sqrt(np.nanmean(np.sum((motion.zmp[:, :2] - zmp_ref) ** 2, axis=1)))),
+    }
+    return motion
 
 
 def kajita_walk(

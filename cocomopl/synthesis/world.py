@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
-from cocomopl.dynamics import SIDES, inverse_dynamics_with_contacts
+from cocomopl.dynamics import SIDES, kinematic_motion
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
@@ -167,21 +167,9 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
     impacts = np.array(impacts[:-1], dtype=int)
     q, filter_errors = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
-    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
-    return Motion(
-        t=t,
-        q=q,
-        v=v,
-        tau=tau,
-        wrenches=wrenches,
-        contact=contact,
-        zmp=zmp,
-        phases=phases,
-        impacts=impacts,
-        steps=[s.spec for s in steps],
-        step_starts=np.array(starts, dtype=int),
-        joint_names=list(robot.joint_names),
-        robot=robot.name,
-        meta={"producer": "primitives", "dynamics_filter_zmp_error_m": filter_errors},
+    return kinematic_motion(
+        robot, t, q, contact, impacts, phases, [s.spec for s in steps], np.array(starts),
+        meta={"producer": "primitives", "dynamics_filter_zmp_error_m": filter_errors}, zmp=zmp,
     )
+
 
