@@ -91,7 +91,7 @@ def main() -> int:
     else:
         print(f"one generated step (conditioned)       {step_s * 1e6:10.1f} us   (goal < 100 us)")
         print(f"M_gen, 9 steps, chained                {sequence_s * 1e6:10.1f} us   (goal < 1000 us)")
-        print(f"M_gen placed in the world (FK + ID)    {placement_s * 1e3:10.1f} ms")
+        print(f"M_gen placed in the world (FK, filter, ID) {placement_s:7.2f} s")
         print(f"OC solve of one cyclic 250 mm step     {oc_s:10.2f} s    -> generation is {oc_s / step_s:,.0f}x faster")
         print(f"training with model selection          {training_s:10.1f} s    ({training_source}; goal < 300 s)")
     return 0
