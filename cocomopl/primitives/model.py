@@ -196,7 +196,8 @@ class MovementPrimitives:
                 "chi": s["chi"][:, :, g].ravel(),
                 # training-step axes first, the I*S (signal, primitive) pairs last and contiguous
                 "beta": np.ascontiguousarray(s["beta"][:, :, g, :n].reshape(-1, n).T),
-                **_quadratic_form(s["C"][:, :, g, :n, :n].reshape(-1, n, n)),
+                # (n, n, I*S): the posterior weight covariances laid out for one einsum
+                "C": np.ascontiguousarray(s["C"][:, :, g, :n, :n].reshape(-1, n, n).transpose(1, 2, 0)),
                 "boundaries": s["boundaries"][g, : P + 1],
                 "support_radius": float(s["support_radius"][g]),
                 "dur_mean": s["dur_mean"][g, :P],
@@ -233,7 +234,7 @@ class MovementPrimitives:
         # with the type's training steps, then the GP posterior mean and variance
         b = c["alpha_w"] * np.exp(np.multiply.outer(d2, c["minus_gamma_w"]))  # (n, I*S)
         w = c["chi"] + np.einsum("nk,nk->k", c["beta"], b)
-        var = c["alpha_w"] - np.einsum("pk,pk->k", c["C_pairs"], b[c["rows"]] * b[c["cols"]])
+        var = c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0)
         shape = self.state_["alpha_w"].shape
         w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
         if start is not None:
@@ -285,13 +286,6 @@ def _condition(w, var, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:
     Ph = var * h
     gain = Ph * (conditioned / ((Ph @ h) * (1.0 + CONDITION_RATIO)))[:, None]
     return w + gain * (start - w @ h)[:, None], var - gain * Ph
-
-
-def _quadratic_form(C: np.ndarray) -> dict:
-    """``b^T C b`` of symmetric (K, n, n) matrices as a sum over the upper triangle's pairs."""
-    rows, cols = np.triu_indices(C.shape[-1])
-    pairs = C[:, rows, cols] * np.where(rows == cols, 1.0, 2.0)
-    return {"C_pairs": np.ascontiguousarray(pairs.T), "rows": rows, "cols": cols}
 
 
 class _SlotLayout:
