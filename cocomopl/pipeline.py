@@ -75,7 +75,7 @@ def simulate_walk(robot: Robot, motion: Motion, stabilizer: bool = True, video: 
     sim = build_sim_model(robot, visuals=video is not None)
     rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress)
     if video is not None:
-        render_video(sim, rollout.measured.t, rollout.qpos, video)
+        render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout, summary(robot, rollout.measured, motion)
 
 

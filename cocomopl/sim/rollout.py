@@ -129,7 +129,7 @@ def simulate(
         time = t0 + (i - n_settle) * model.opt.timestep
         command = reference(max(time, t0))
         if control is not None:
-            command = command + control.correction(data, max(time, t0), moving=i >= n_settle)
+            command = command + control.correction(data, max(time, t0))
         data.ctrl[:] = command
         if i >= n_settle and (i - n_settle) % every == 0:
             rows["t"].append(time - t0)

@@ -50,7 +50,7 @@ class Stabilizer:
     def _sample(self, time: float) -> int:
         return int(np.clip(np.searchsorted(self.t, time, side="right") - 1, 0, len(self.t) - 1))
 
-    def correction(self, data: mujoco.MjData, time: float, moving: bool = True) -> np.ndarray:
+    def correction(self, data: mujoco.MjData, time: float) -> np.ndarray:
         """Joint-angle offsets (nu,) to add to the reference command at ``time``."""
         k = self._sample(time)
         w, x, y, z = data.qpos[3:7]

@@ -8,6 +8,7 @@ from pathlib import Path
 import imageio.v2 as imageio
 import mujoco
 import numpy as np
+from tqdm import tqdm
 
 from cocomopl.motion_file import atomic_path
 from cocomopl.sim.model import SimModel
@@ -20,6 +21,7 @@ def render_video(
     path: str | Path,
     fps: int = 25,
     size: tuple[int, int] = (640, 480),
+    progress: bool = False,
 ) -> Path:
     """Write an MP4 of the states ``qpos`` (n, nq) at ``times`` (s), seen from the side by a
     camera that follows the pelvis.  Written atomically."""
@@ -35,7 +37,7 @@ def render_video(
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", macro_block_size=8) as writer:
-            for k in indices:
+            for k in tqdm(indices, desc="rendering", unit="frame", disable=not progress, leave=False):
                 data.qpos[:] = qpos[k]
                 mujoco.mj_kinematics(sim.mj, data)
                 camera.lookat[:] = [data.qpos[0], data.qpos[1], 0.8]
