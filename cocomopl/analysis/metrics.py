@@ -22,7 +22,10 @@ from cocomopl.dynamics import GRAVITY, pelvis_placements, sole_placements
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
-from cocomopl.sim.rollout import FALL_HEIGHT_RATIO, FALL_TILT
+
+# fallen: the pelvis below this fraction of its starting height, or the trunk tilted this much
+FALL_HEIGHT_RATIO = 0.6
+FALL_TILT = np.radians(45.0)
 
 # Width (s) of the moving average applied to contact forces before differentiating them.
 # A simulator's forces chatter from one 1 kHz step to the next and spike for a single

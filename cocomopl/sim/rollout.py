@@ -19,6 +19,7 @@ from tqdm import tqdm
 
 from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.motion import Motion
+from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
 from cocomopl.sim.model import SimModel
 from cocomopl.sim.stabilizer import Stabilizer
 
@@ -26,9 +27,6 @@ RECORD_DT = 0.005  # s between recorded samples
 SETTLE_S = 0.5  # s standing before the motion starts
 HOLD_S = 1.0  # s standing in the last posture after it ends: a walk must also come to rest
 CONTACT_FORCE = 1.0  # N: a sole with less than this is in the air
-# fall: the pelvis below this fraction of its starting height, or the trunk tilted this much
-FALL_HEIGHT_RATIO = 0.6
-FALL_TILT = np.radians(45.0)
 
 
 @dataclass
