@@ -1,8 +1,10 @@
 """Is a motion safe to send to a robot?  The gate in front of ``cocomopl export``.
 
-Each check names what fails, where and by how much: joint position, velocity and torque
-limits, the ZMP of the contact wrenches inside the support polygon, and the two feet
-keeping clear of each other.
+:func:`safety_report` gives the worst value of each check and where it happens; the
+checks are joint position, velocity and torque limits, the ZMP of the contact wrenches
+inside the support polygon, and the 3-D distance between the two feet's meshes (Coal,
+through Pinocchio's geometry model), at every sample.  :func:`check_safe` turns the
+failed checks into one line each, naming what fails, where and by how much.
 """
 
 from __future__ import annotations
@@ -11,94 +13,108 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.analysis.feasibility import polygon_margin, support_polygon
-from cocomopl.dynamics import sole_placements, zmp_from_wrenches
+from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
+from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 
 POSITION_TOLERANCE = 1e-3  # rad beyond a joint limit
-FOOT_CLEARANCE = 0.01  # m between the two soles' outlines
-LOW_FOOT = 0.05  # m: soles lower than this can collide in the horizontal plane
+FOOT_CLEARANCE = 0.01  # m between the two feet's meshes
 
 
-def _worst(values: np.ndarray) -> tuple[int, int]:
-    """(sample, column) of the largest value."""
+def _worst_joint(robot: Robot, motion: Motion, values: np.ndarray) -> dict:
+    """The largest of ``values`` (n, nu): its value, time and joint."""
     k, j = np.unravel_index(int(np.argmax(values)), values.shape)
-    return int(k), int(j)
+    return {"value": float(values[k, j]), "t": float(motion.t[k]), "joint": robot.joint_names[j], "sample": int(k)}
 
 
-def limit_violations(robot: Robot, motion: Motion) -> list[str]:
-    """One line per exceeded limit kind, naming the worst joint, time and value."""
-    out = []
-    q = motion.q[:, 7:]
-    excess = np.maximum(robot.q_lower - q, q - robot.q_upper)
-    if excess.max() > POSITION_TOLERANCE:
-        k, j = _worst(excess)
-        out.append(
-            f"{robot.joint_names[j]} reaches {q[k, j]:.3f} rad at t = {motion.t[k]:.2f} s, "
-            f"outside its limits [{robot.q_lower[j]:.3f}, {robot.q_upper[j]:.3f}]"
-        )
-    for name, values, limit, unit in (
-        ("velocity", motion.v[:, 6:], robot.v_max, "rad/s"),
-        ("torque", motion.tau, robot.tau_max, "N m"),
-    ):
-        ratio = np.abs(values) / limit
-        if ratio.max() > 1.0:
-            k, j = _worst(ratio)
-            out.append(
-                f"{name} of {robot.joint_names[j]} reaches {ratio[k, j]:.2f}x its limit "
-                f"({abs(values[k, j]):.1f} {unit}) at t = {motion.t[k]:.2f} s"
-            )
-    return out
-
-
-def zmp_violation(robot: Robot, motion: Motion) -> list[str]:
-    """The ZMP of the contact wrenches outside the support polygon (worst sample)."""
+def zmp_margin(robot: Robot, motion: Motion) -> dict:
+    """Smallest signed distance (m) of the contact wrenches' ZMP inside the support polygon,
+    over the intervals of the motion (a touchdown's pre-impact sample starts none)."""
     intervals = np.flatnonzero(np.diff(motion.t) > 0)
     zmp = zmp_from_wrenches(sole_placements(robot, motion.q[intervals]), motion.wrenches[intervals])
-    worst, at = np.inf, None
+    worst = {"value": np.inf, "t": float(motion.t[0])}
     for i, k in enumerate(intervals):
         if motion.contact[k].any() and np.all(np.isfinite(zmp[i, :2])):
             margin = polygon_margin(support_polygon(robot, motion.q[k], motion.contact[k]), zmp[i, :2])
-            if margin < worst:
-                worst, at = margin, k
-    if at is None or worst >= 0:
-        return []
-    return [f"the ZMP leaves the support polygon by {-worst * 1000:.0f} mm at t = {motion.t[at]:.2f} s"]
+            if margin < worst["value"]:
+                worst = {"value": margin, "t": float(motion.t[k])}
+    return worst
 
 
-def _outline(robot: Robot, placement_xy: np.ndarray, yaw: float) -> np.ndarray:
-    """Corners (4, 2) of a sole grown by half the clearance, in the horizontal plane."""
-    grow = FOOT_CLEARANCE / 2
-    corners = robot.sole.corners() + np.sign(robot.sole.corners()) * grow
-    c, s = np.cos(yaw), np.sin(yaw)
-    return corners @ np.array([[c, s], [-s, c]]) + placement_xy
+def feet_geometry(robot: Robot) -> pin.GeometryModel:
+    """The meshes of the two links that carry the soles, each left mesh paired with each right one."""
+    visual = robot.visual_model()
+    feet = pin.GeometryModel()
+    ids = {}
+    for side in SIDES:
+        joint = robot.model.frames[robot.foot_frames[side]].parentJoint
+        meshes = [g for g in visual.geometryObjects if g.parentJoint == joint]
+        if not meshes:
+            raise Error(f"robot {robot.name!r} has no mesh on its {side} foot to check the feet against each other")
+        ids[side] = [feet.addGeometryObject(g) for g in meshes]
+    for a in ids[SIDES[0]]:
+        for b in ids[SIDES[1]]:
+            feet.addCollisionPair(pin.CollisionPair(a, b))
+    return feet
 
 
-def _overlap(a: np.ndarray, b: np.ndarray) -> bool:
-    """Do two convex polygons overlap?  (Separating-axis test.)"""
-    for polygon in (a, b):
-        edges = np.roll(polygon, -1, axis=0) - polygon
-        for normal in np.stack([-edges[:, 1], edges[:, 0]], axis=1):
-            pa, pb = a @ normal, b @ normal
-            if pa.max() < pb.min() or pb.max() < pa.min():
-                return False
-    return True
-
-
-def foot_collision(robot: Robot, motion: Motion) -> list[str]:
-    """The two soles closer than ``FOOT_CLEARANCE`` while both are near the ground."""
-    model, data = robot.model, robot.model.createData()
+def foot_distance(robot: Robot, motion: Motion) -> dict:
+    """Smallest 3-D distance (m) between the two feet over the motion, and when."""
+    feet = feet_geometry(robot)
+    data, geometry_data = robot.model.createData(), pin.GeometryData(feet)
+    distances = np.empty(motion.n)
     for k, q in enumerate(motion.q):
-        pin.framesForwardKinematics(model, data, q)
-        soles = [data.oMf[robot.foot_frames[side]] for side in ("left", "right")]
-        if max(M.translation[2] for M in soles) > LOW_FOOT:
-            continue
-        outlines = [_outline(robot, M.translation[:2], np.arctan2(M.rotation[1, 0], M.rotation[0, 0])) for M in soles]
-        if _overlap(*outlines):
-            return [f"the feet come within {FOOT_CLEARANCE * 1000:.0f} mm of each other at t = {motion.t[k]:.2f} s"]
-    return []
+        pin.computeDistances(robot.model, data, feet, geometry_data, q)
+        distances[k] = min(r.min_distance for r in geometry_data.distanceResults)
+    k = int(np.argmin(distances))
+    return {"value": float(max(distances[k], 0.0)), "t": float(motion.t[k])}  # Coal reports penetration as < 0
+
+
+def safety_report(robot: Robot, motion: Motion) -> dict:
+    """Worst value of every safety check, and where it happens.
+
+    Returns
+    -------
+    dict
+        ``joint_position_excess`` (rad beyond a limit, 0 inside), ``joint_velocity_ratio``
+        and ``torque_ratio`` (max of |value| / limit): each ``{"value", "t", "joint",
+        "sample"}``; ``zmp_margin`` (m, negative outside the support polygon) and
+        ``foot_distance`` (m between the feet's meshes): each ``{"value", "t"}``.
+    """
+    q = motion.q[:, 7:]
+    excess = np.maximum(np.maximum(robot.q_lower - q, q - robot.q_upper), 0.0)
+    return {
+        "joint_position_excess": _worst_joint(robot, motion, excess),
+        "joint_velocity_ratio": _worst_joint(robot, motion, np.abs(motion.v[:, 6:]) / robot.v_max),
+        "torque_ratio": _worst_joint(robot, motion, np.abs(motion.tau) / robot.tau_max),
+        "zmp_margin": zmp_margin(robot, motion),
+        "foot_distance": foot_distance(robot, motion),
+    }
 
 
 def check_safe(robot: Robot, motion: Motion) -> list[str]:
     """Reasons the motion is unsafe for the robot, one line each; empty if it is safe."""
-    return limit_violations(robot, motion) + zmp_violation(robot, motion) + foot_collision(robot, motion)
+    report = safety_report(robot, motion)
+    reasons = []
+    position = report["joint_position_excess"]
+    if position["value"] > POSITION_TOLERANCE:
+        j = robot.joint_names.index(position["joint"])
+        reasons.append(
+            f"{position['joint']} reaches {motion.q[position['sample'], 7 + j]:.3f} rad at t = {position['t']:.2f} s, "
+            f"outside its limits [{robot.q_lower[j]:.3f}, {robot.q_upper[j]:.3f}]"
+        )
+    for name, key in (("velocity", "joint_velocity_ratio"), ("torque", "torque_ratio")):
+        worst = report[key]
+        if worst["value"] > 1.0:
+            reasons.append(f"{name} of {worst['joint']} reaches {worst['value']:.2f}x its limit at t = {worst['t']:.2f} s")
+    zmp = report["zmp_margin"]
+    if zmp["value"] < 0.0:
+        reasons.append(f"the ZMP leaves the support polygon by {-zmp['value'] * 1000:.0f} mm at t = {zmp['t']:.2f} s")
+    feet = report["foot_distance"]
+    if feet["value"] < FOOT_CLEARANCE:
+        reasons.append(
+            f"the feet come within {feet['value'] * 1000:.0f} mm of each other at t = {feet['t']:.2f} s "
+            f"(at least {FOOT_CLEARANCE * 1000:.0f} mm needed)"
+        )
+    return reasons

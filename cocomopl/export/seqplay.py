@@ -1,13 +1,16 @@
 """A motion for a real robot: OpenHRP ``seqplay`` files and CSV, on a uniform 5 ms grid.
 
 The seqplay pattern files are plain text, one line per 5 ms control cycle, each starting
-with the time in seconds (hrpsys ``SequencePlayer::loadPattern`` reads ``BASE.pos``,
-``BASE.zmp`` and ``BASE.waist`` or ``BASE.hip``):
+with the time in seconds:
 
 * ``.pos``: joint angles (rad) in the robot's joint order;
 * ``.zmp``: the reference ZMP (m) in the waist (pelvis) frame;
-* ``.hip``: waist roll, pitch, yaw (rad);
+* ``.hip``: waist roll, pitch, yaw (rad), the OpenHRP convention the paper's HRP-2 used;
 * ``.waist``: waist position x, y, z (m), then roll, pitch, yaw (rad), world frame.
+
+Recent hrpsys-base (``seqplay::loadPattern``) reads ``BASE.hip`` if it exists and then
+expects x y z roll pitch yaw in it, ignoring ``BASE.waist``; older versions read roll,
+pitch, yaw from ``.hip``.  For a recent hrpsys, delete the ``.hip`` so ``.waist`` is read.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.motion import Motion
-from cocomopl.motion_file import atomic_path
+from cocomopl.motion_file import atomic_path, writable_folder
 from cocomopl.robot import Robot
 
 CONTROL_DT = 0.005  # s, HRP-2's control cycle
@@ -53,10 +56,12 @@ def export_motion(robot: Robot, motion: Motion, fmt: str, prefix: str | Path, dt
     """Write ``motion`` as seqplay files (``PREFIX.pos .zmp .hip .waist``) or ``PREFIX.csv``.
 
     All files appear together or not at all (each is written to a temporary file first).
+    Raises :class:`~cocomopl.errors.Error` if the folder of ``prefix`` cannot be written.
     """
     if fmt not in FORMATS:
         raise ValueError(f"format must be one of {FORMATS}, not {fmt!r}")
     prefix = Path(prefix)
+    writable_folder(prefix.parent, f"the folder of {prefix}")
     data = resample(motion, dt)
     t = data["t"]
     if fmt == "seqplay":
