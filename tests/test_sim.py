@@ -103,3 +103,21 @@ def test_an_oc_step_walks_and_its_measurement_round_trips(robot, sim, tmp_path):
     write_motions(tmp_path / "m.h5", {"sim": measured}, {"robot": robot.name})
     back = read_motion(tmp_path / "m.h5")
     assert np.array_equal(back.q, measured.q) and np.array_equal(back.wrenches, measured.wrenches)
+
+
+def test_sole_lift_offsets_raise_the_sole_vertically_and_keep_it_flat(robot):
+    from cocomopl.sim.stabilizer import _sole_lifts
+
+    q = double_support_posture(robot, (0.0, foot_separation(robot)), (0.0, 0.0))  # knees bent
+    lifts = _sole_lifts(robot, q[None])[0]
+    for j, side in enumerate(("left", "right")):
+        offsets = lifts[j]
+        assert set(np.flatnonzero(offsets)) <= set(robot.leg_chain(side))  # only its own leg moves
+        before = robot.frame_placement(q, robot.foot_frames[side])
+        q_up = q.copy()
+        q_up[7:] += 0.005 * offsets  # 5 mm up
+        after = robot.frame_placement(q_up, robot.foot_frames[side])
+        rise = after.translation - before.translation
+        assert 0.8 * 0.005 < rise[2] <= 0.005  # damping shortens the rise a little, never overshoots
+        assert np.abs(rise[:2]).max() < 2e-4
+        assert np.abs(pin.log3(before.rotation.T @ after.rotation)).max() < 2e-3

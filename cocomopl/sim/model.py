@@ -62,6 +62,24 @@ class SimModel:
         R = pin.Quaternion(qpos[3], qpos[4], qpos[5], qpos[6]).toRotationMatrix()
         return np.concatenate([R.T @ qvel[:3], qvel[3:]])
 
+    def sole_wrenches(self, data: mujoco.MjData) -> np.ndarray:
+        """Contact wrench (2, 6) on each sole from the floor: world axes, about the sole frame."""
+        out = np.zeros((2, 6))
+        force = np.zeros(6)
+        for i in range(data.ncon):
+            contact = data.contact[i]
+            for j, side in enumerate(SIDES):
+                geom = self.sole_geoms[side]
+                if geom not in (contact.geom1, contact.geom2):
+                    continue
+                mujoco.mj_contactForce(self.mj, data, i, force)
+                # contact-frame force, normal from geom1 to geom2: on geom2 as is, on geom1 reversed
+                f = contact.frame.reshape(3, 3).T @ force[:3] * (1.0 if contact.geom2 == geom else -1.0)
+                arm = contact.pos - data.site_xpos[self.sole_sites[side]]
+                out[j, :3] += f
+                out[j, 3:] += np.cross(arm, f)
+        return out
+
 
 def _vec(x) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(x))

@@ -52,25 +52,6 @@ def _reference_joints(motion: Motion):
     return at
 
 
-def _sole_wrenches(sim: SimModel, data: mujoco.MjData) -> np.ndarray:
-    """Contact wrench (2, 6) on each sole from the floor: world axes, about the sole frame."""
-    out = np.zeros((2, 6))
-    force = np.zeros(6)
-    for i in range(data.ncon):
-        contact = data.contact[i]
-        for j, side in enumerate(SIDES):
-            geom = sim.sole_geoms[side]
-            if geom not in (contact.geom1, contact.geom2):
-                continue
-            mujoco.mj_contactForce(sim.mj, data, i, force)
-            # contact-frame force, normal from geom1 to geom2: on geom2 as is, on geom1 reversed
-            f = contact.frame.reshape(3, 3).T @ force[:3] * (1.0 if contact.geom2 == geom else -1.0)
-            arm = contact.pos - data.site_xpos[sim.sole_sites[side]]
-            out[j, :3] += f
-            out[j, 3:] += np.cross(arm, f)
-    return out
-
-
 def _placed_on_floor(sim: SimModel, data: mujoco.MjData, q0: np.ndarray) -> None:
     """Set the state to ``q0`` at rest, lowered so that the lowest sole touches the floor."""
     data.qpos[:] = sim.qpos(q0)
@@ -134,7 +115,7 @@ def simulate(
             rows["q"].append(sim.q(data.qpos))
             rows["v"].append(sim.v(data.qpos, data.qvel))
             rows["tau"].append(data.actuator_force.copy())
-            rows["wrenches"].append(_sole_wrenches(sim, data))
+            rows["wrenches"].append(sim.sole_wrenches(data))
             rows["qpos"].append(data.qpos.copy())
         if data.qpos[2] < FALL_HEIGHT_RATIO * start_height or _tilt(data.qpos[3:7]) > FALL_TILT:
             fell, fall_time = True, max(time - t0, 0.0)

@@ -1,6 +1,6 @@
 """A walking stabilizer for a position-controlled humanoid, after HRP-2's.
 
-Two small corrections are added to the commanded joint angles, on the legs in contact:
+Three small corrections are added to the commanded joint angles of the legs:
 
 * **Body attitude feedback** (hip roll and pitch).  The pelvis roll and pitch measured by
   the IMU are compared with the reference's; with the foot on the ground, turning a hip
@@ -12,8 +12,14 @@ Two small corrections are added to the commanded joint angles, on the legs in co
   command yields to the difference, ``dΔ/dt = -(τ_measured - τ_reference) / D - Δ / T``:
   the foot complies with the ground instead of tipping the robot, and the leak ``T``
   returns it to the reference posture.
+* **Foot force difference control** (Kajita et al., IROS 2010).  The difference of the two
+  soles' vertical forces, left minus right, is compared with the reference's, and the soles
+  are moved vertically against each other, ``dz/dt = (ΔF_measured - ΔF_reference) / D -
+  z / T``, the left sole raised by ``z/2`` and the right lowered by ``z/2``: a foot that
+  lands early or carries too much load is drawn up and the other pushed down.  The sole displacement
+  becomes leg-joint offsets through the inverse of the leg Jacobian, taken on the reference.
 
-Both act only on feet the reference has in contact; a swinging foot's corrections decay
+The first two act only on feet the reference has in contact; a swinging foot's corrections decay
 with the same leak.  ``cocomopl simulate --no-stabilizer`` switches it off.
 """
 
@@ -30,13 +36,37 @@ ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
 ANKLE_DAMPING = 300.0  # N m s/rad: D, how slowly an ankle yields to a torque error
 ANKLE_LEAK = 0.5  # s: T, how fast the ankle returns to the reference
+FORCE_DAMPING = 1e4  # N s/m: D, how slowly the soles yield to a force-difference error
+FORCE_LEAK = 0.2  # s: T, how fast the soles return to the reference
+LIFT = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # raise the sole, keep its orientation
+LIFT_DAMPING = 0.05  # m, of the leg Jacobian's damped inverse
 MAX_CORRECTION = 0.2  # rad, per joint
+
+
+def _sole_lifts(robot, q: np.ndarray) -> np.ndarray:
+    """Leg-joint offsets (n, 2, nu) that raise each sole by 1 m relative to the pelvis,
+    orientation unchanged, at each configuration ``q`` (n, nq), to first order.  The leg
+    Jacobian's damped inverse gives a little less rise than asked (86 % with the knees bent
+    as in standing) and stays bounded as the knee stretches."""
+    model, data = robot.model, robot.model.createData()
+    out = np.zeros((len(q), 2, robot.nu))
+    for k, qk in enumerate(q):
+        pin.computeJointJacobians(model, data, qk)
+        pin.updateFramePlacements(model, data)
+        for j, side in enumerate(SIDES):
+            chain = robot.leg_chain(side)
+            J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED)
+            J_leg = J[:, [6 + i for i in chain]]
+            # damped least squares: a stretched knee cannot shorten the leg at first order
+            out[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + LIFT_DAMPING**2 * np.eye(6), LIFT)
+    return out
 
 
 class Stabilizer:
     """Corrections to the commanded joint angles of one rollout (it keeps the ankle state)."""
 
     def __init__(self, sim, reference: Motion):
+        self.sim = sim
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
@@ -45,7 +75,10 @@ class Stabilizer:
         self.contact = reference.contact[keep]
         self.tau = reference.tau[keep]
         self.rpy = np.array([pin.rpy.matrixToRpy(pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()) for q in reference.q[keep]])
+        self.force_difference = reference.wrenches[keep, 0, 2] - reference.wrenches[keep, 1, 2]
+        self.lifts = _sole_lifts(self.robot, reference.q[keep])
         self.ankles = np.zeros(self.robot.nu)
+        self.z = 0.0
 
     def _sample(self, time: float) -> int:
         return int(np.clip(np.searchsorted(self.t, time, side="right") - 1, 0, len(self.t) - 1))
@@ -68,5 +101,8 @@ class Stabilizer:
                 self.ankles[ankles] += self.dt * (-torque_error / ANKLE_DAMPING - self.ankles[ankles] / ANKLE_LEAK)
             else:
                 self.ankles[ankles] -= self.dt * self.ankles[ankles] / ANKLE_LEAK
-        out += self.ankles
+        forces = self.sim.sole_wrenches(data)[:, 2]
+        error = (forces[0] - forces[1]) - self.force_difference[k]
+        self.z += self.dt * (error / FORCE_DAMPING - self.z / FORCE_LEAK)
+        out += self.ankles + 0.5 * self.z * (self.lifts[k, 0] - self.lifts[k, 1])
         return np.clip(out, -MAX_CORRECTION, MAX_CORRECTION)
