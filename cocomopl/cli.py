@@ -264,6 +264,7 @@ def cmd_generate(args) -> int:
         "distance_mm": 1000 * s.distance} for s in steps]
     payload = {"output": str(out), "steps": rows, "n_steps": len(steps), "duration_s": motion.duration,
                "generation_s": generation_s, "placement_s": placement_s,
+               "dynamics_filter_zmp_error_m": motion.meta["dynamics_filter_kept_error_m"],
                "out_of_support": [r["step"] for r in rows if not r["in_support"]]}
     lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support"]
     lines += [f"{r['step']:24s} {r['duration_s']:8.3f}s {r['joint_std_max_rad']:12.4f}rad  "

@@ -22,6 +22,11 @@ from cocomopl.synthesis.sequence import (
 )
 from cocomopl.synthesis.world import place_steps
 
+# m: the dynamics filter's RMS ZMP error above which a walk is flagged.  On 50 random walks
+# (benchmarks/random_walks.py --seed 1), 25 of the 31 that fell were above it and 12 of the
+# 19 that walked below.
+FILTER_WARNING_M = 0.03
+
 
 @dataclass
 class GeneratedWalk:
@@ -45,7 +50,8 @@ def generate_walk(
     """Generate and place a walk of step lengths ``lengths`` (m): start, ..., stop.
 
     Steps outside the training support are warned about (``warnings``), or refused with
-    ``strict``.
+    ``strict``.  So is a walk that the dynamics filter could not make consistent (its ZMP
+    more than ``FILTER_WARNING_M`` RMS from the learned one): most such walks fall.
     """
     model = load_model(model_path).prepare()
     robot = Robot(model.metadata_.get("robot", "talos"))
@@ -59,7 +65,14 @@ def generate_walk(
     motion = place_steps(robot, steps, dt)
     placement_s = time.perf_counter() - started
     motion.meta.update({"model": str(model_path), "lengths_mm": [1000 * x for x in lengths]})
-    return GeneratedWalk(robot, motion, steps, generation_s, placement_s, [str(w.message) for w in caught])
+    messages = [str(w.message) for w in caught]
+    error = motion.meta["dynamics_filter_kept_error_m"]
+    if error > FILTER_WARNING_M:
+        messages.append(
+            f"the dynamics filter left the walk's ZMP {100 * error:.1f} cm RMS from the learned one "
+            f"(over {100 * FILTER_WARNING_M:.0f} cm): it is not dynamically consistent and will likely fall"
+        )
+    return GeneratedWalk(robot, motion, steps, generation_s, placement_s, messages)
 
 
 def simulate_walk(robot: Robot, motion: Motion, stabilizer: bool = True, video: Path | None = None, progress: bool = False):
@@ -120,6 +133,7 @@ def walk_report(
         **metrics,
         "generation_s": walk.generation_s,
         "placement_s": walk.placement_s,
+        "dynamics_filter_zmp_error_m": walk.motion.meta["dynamics_filter_kept_error_m"],
         "warnings": walk.warnings,
         "files": [str(f) for f in files + [out_dir / "metrics.json"]],
     }

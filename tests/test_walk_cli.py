@@ -33,6 +33,18 @@ def test_walk_writes_its_report_and_one_json_object(walk_report):
     assert not [n for n in names if n.startswith(".")]  # no temporary file left behind
 
 
+def test_walk_flags_a_walk_the_dynamics_filter_left_inconsistent(walk_report):
+    from cocomopl.pipeline import FILTER_WARNING_M
+
+    _, result = walk_report
+    payload = json.loads(result.stdout)
+    error = payload["dynamics_filter_zmp_error_m"]
+    assert 0 <= error < 1
+    flagged = any("dynamics filter" in w for w in payload["warnings"])
+    assert flagged == (error > FILTER_WARNING_M)
+    assert flagged == ("dynamics filter" in result.stderr)  # and the human sees it too
+
+
 def test_simulate_a_motion_file(walk_report, tmp_path):
     out, _ = walk_report
     # the generated motion of the report, alone in a file, then simulated without stabilizer

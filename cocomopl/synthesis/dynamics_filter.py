@@ -178,7 +178,7 @@ def dynamics_filter(
     ground: list[list[pin.SE3 | None]],
     zmp_ref: np.ndarray,
     passes: int = PASSES,
-) -> tuple[np.ndarray, list[float]]:
+) -> tuple[np.ndarray, list[float], int]:
     """Pelvis and legs of a kinematic walk corrected so its multibody ZMP follows ``zmp_ref``.
 
     Parameters
@@ -193,6 +193,7 @@ def dynamics_filter(
     errors : the RMS horizontal ZMP error (m) before each pass and after the last; the pass
         with the smallest is returned (the iteration need not decrease monotonically), among
         those whose soles in contact reach their footsteps if any do
+    kept : the index in ``errors`` of the returned pass
     """
     model, data = robot.model, robot.model.createData()
     legs = leg_joints(robot)
@@ -213,8 +214,8 @@ def dynamics_filter(
         # a pass whose shift put a planned footstep out of the legs' reach is not a candidate
         score = (_stance_error(robot, q_pass, ground) > IK_REACHED, errors[-1])
         if best is None or score < best[0]:
-            best = (score, q_pass)
+            best = (score, q_pass, i)
         if i < passes:
             shift[keep] += RELAXATION * zmp_correction(t[keep], error[keep], height)
             shift[~keep] = shift[np.flatnonzero(~keep) + 1]
-    return best[1], errors
+    return best[1], errors, best[2]

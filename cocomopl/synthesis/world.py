@@ -166,10 +166,14 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
         impacts.append(count - 1)
     t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
     impacts = np.array(impacts[:-1], dtype=int)
-    q, filter_errors = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
+    q, filter_errors, kept = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
     return kinematic_motion(
         robot, t, q, contact, impacts, phases, [s.spec for s in steps], np.array(starts),
-        meta={"producer": "primitives", "dynamics_filter_zmp_error_m": filter_errors}, zmp=zmp,
+        meta={
+            "producer": "primitives",
+            "dynamics_filter_zmp_error_m": filter_errors,
+            "dynamics_filter_kept_error_m": filter_errors[kept],
+        }, zmp=zmp,
     )
 
 
