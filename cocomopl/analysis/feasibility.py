@@ -58,20 +58,30 @@ def polygon_margin(polygon: np.ndarray, point: np.ndarray) -> float:
     return float(np.min(np.einsum("ij,ij->i", normals, point[None, :] - polygon)))
 
 
+def zmp_margins(robot: Robot, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """Signed distance (m) of the contact wrenches' ZMP inside the support polygon on each
+    interval of the motion (a touchdown's pre-impact sample starts none).
+
+    Returns the intervals' first samples and their margins; NaN where no sole is in contact
+    or the ZMP is undefined.
+    """
+    intervals = np.array([k for k in range(motion.n - 1) if motion.t[k + 1] > motion.t[k]])
+    zmp = zmp_from_wrenches(sole_placements(robot, motion.q[intervals]), motion.wrenches[intervals])
+    margins = np.full(len(intervals), np.nan)
+    for i, k in enumerate(intervals):
+        if motion.contact[k].any() and np.all(np.isfinite(zmp[i, :2])):
+            margins[i] = polygon_margin(support_polygon(robot, motion.q[k], motion.contact[k]), zmp[i, :2])
+    return intervals, margins
+
+
 def check_motion(robot: Robot, motion: Motion, friction: float) -> dict:
     """Worst values of every per-motion check."""
-    n = motion.n
-    intervals = np.array([k for k in range(n - 1) if motion.t[k + 1] > motion.t[k]])
+    intervals, margins = zmp_margins(robot, motion)
     a = finite_difference_accelerations(motion.t, motion.v)
     residual = inverse_dynamics_residual(
         robot, motion.q[intervals], motion.v[intervals], a[intervals], motion.tau[intervals], motion.wrenches[intervals]
     )
     soles = sole_placements(robot, motion.q)
-    zmp = zmp_from_wrenches(soles[intervals], motion.wrenches[intervals])
-    margins = [
-        polygon_margin(support_polygon(robot, motion.q[k], motion.contact[k]), zmp[i, :2])
-        for i, k in enumerate(intervals)
-    ]
     forces = motion.wrenches[intervals][..., :3]
     in_contact = motion.contact[intervals]
     fn = forces[..., 2][in_contact]

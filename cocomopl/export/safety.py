@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from cocomopl.analysis.feasibility import polygon_margin, support_polygon
-from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
+from cocomopl.analysis.feasibility import zmp_margins
+from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
@@ -30,16 +30,12 @@ def _worst_joint(robot: Robot, motion: Motion, values: np.ndarray) -> dict:
 
 def zmp_margin(robot: Robot, motion: Motion) -> dict:
     """Smallest signed distance (m) of the contact wrenches' ZMP inside the support polygon,
-    over the intervals of the motion (a touchdown's pre-impact sample starts none)."""
-    intervals = np.flatnonzero(np.diff(motion.t) > 0)
-    zmp = zmp_from_wrenches(sole_placements(robot, motion.q[intervals]), motion.wrenches[intervals])
-    worst = {"value": np.inf, "t": float(motion.t[0])}
-    for i, k in enumerate(intervals):
-        if motion.contact[k].any() and np.all(np.isfinite(zmp[i, :2])):
-            margin = polygon_margin(support_polygon(robot, motion.q[k], motion.contact[k]), zmp[i, :2])
-            if margin < worst["value"]:
-                worst = {"value": margin, "t": float(motion.t[k])}
-    return worst
+    and when (``inf`` if it is nowhere defined)."""
+    intervals, margins = zmp_margins(robot, motion)
+    if np.all(np.isnan(margins)):
+        return {"value": np.inf, "t": float(motion.t[0])}
+    i = int(np.nanargmin(margins))
+    return {"value": float(margins[i]), "t": float(motion.t[intervals[i]])}
 
 
 def feet_geometry(robot: Robot) -> pin.GeometryModel:

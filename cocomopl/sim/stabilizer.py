@@ -16,11 +16,12 @@ Three small corrections are added to the commanded joint angles of the legs:
   soles' vertical forces, left minus right, is compared with the reference's, and the soles
   are moved vertically against each other, ``dz/dt = (ΔF_measured - ΔF_reference) / D -
   z / T``, the left sole raised by ``z/2`` and the right lowered by ``z/2``: a foot that
-  lands early or carries too much load is drawn up and the other pushed down.  The sole displacement
-  becomes leg-joint offsets through the inverse of the leg Jacobian, taken on the reference.
+  lands early or carries too much load is drawn up and the other pushed down.  The sole
+  displacement becomes leg-joint offsets through the damped inverse of the leg Jacobian,
+  taken on the reference.
 
-The first two act only on feet the reference has in contact; a swinging foot's corrections decay
-with the same leak.  ``cocomopl simulate --no-stabilizer`` switches it off.
+The first two act only on feet the reference has in contact; a swinging foot's corrections
+decay with the same leak.  ``cocomopl simulate --no-stabilizer`` switches it off.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import pinocchio as pin
 
 from cocomopl.dynamics import SIDES
 from cocomopl.motion import Motion
+from cocomopl.robot import Robot
 
 ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
@@ -43,18 +45,18 @@ LIFT_DAMPING = 0.05  # m, of the leg Jacobian's damped inverse
 MAX_CORRECTION = 0.2  # rad, per joint
 
 
-def _sole_lifts(robot, q: np.ndarray) -> np.ndarray:
+def _sole_lifts(robot: Robot, q: np.ndarray) -> np.ndarray:
     """Leg-joint offsets (n, 2, nu) that raise each sole by 1 m relative to the pelvis,
     orientation unchanged, at each configuration ``q`` (n, nq), to first order.  The leg
     Jacobian's damped inverse gives a little less rise than asked (86 % with the knees bent
     as in standing) and stays bounded as the knee stretches."""
     model, data = robot.model, robot.model.createData()
+    chains = [robot.leg_chain(side) for side in SIDES]
     out = np.zeros((len(q), 2, robot.nu))
     for k, qk in enumerate(q):
         pin.computeJointJacobians(model, data, qk)
         pin.updateFramePlacements(model, data)
-        for j, side in enumerate(SIDES):
-            chain = robot.leg_chain(side)
+        for j, (side, chain) in enumerate(zip(SIDES, chains)):
             J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED)
             J_leg = J[:, [6 + i for i in chain]]
             # damped least squares: a stretched knee cannot shorten the leg at first order
