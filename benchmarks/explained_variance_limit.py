@@ -26,6 +26,7 @@ import json
 
 import numpy as np
 
+from cocomopl.errors import Error
 from cocomopl.primitives.model import signal_groups
 from cocomopl.primitives.training import load_training_steps, phase_templates, resample
 
@@ -62,10 +63,19 @@ def main() -> int:
     parser.add_argument("--primitives", default="9,11,13,15", help="comma-separated numbers of primitives S")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     args = parser.parse_args()
-    steps = load_training_steps(args.dataset)
+    try:
+        sizes = [int(x) for x in args.primitives.split(",")]
+    except ValueError:
+        parser.error(f"--primitives {args.primitives!r}: expected whole numbers such as 9,11,13")
+    if min(sizes) < 1:
+        parser.error(f"--primitives {args.primitives!r}: each number of primitives must be at least 1")
+    try:
+        steps = load_training_steps(args.dataset)
+    except Error as exc:
+        parser.error(str(exc))
     X = resample(steps, phase_templates(steps), np.linspace(0.0, 1.0, 100))
     groups = signal_groups(steps.signal_names)
-    rows = [{"n_primitives": S, **best_balanced(X, groups, S)} for S in map(int, args.primitives.split(","))]
+    rows = [{"n_primitives": S, **best_balanced(X, groups, S)} for S in sizes]
     if args.json:
         print(json.dumps({"dataset": args.dataset, "limits": rows}))
         return 0
