@@ -10,7 +10,8 @@ from cocomopl.motion_file import read_motion, write_motions
 from cocomopl.ocp.posture import double_support_posture
 from cocomopl.ocp.problems import foot_separation
 from cocomopl.sim.model import build_sim_model
-from cocomopl.sim.rollout import simulate
+from cocomopl.sim.rollout import _placed_on_floor, simulate
+from cocomopl.sim.stabilizer import Stabilizer, _leg_maps
 
 DATASET = "cocomopl/data/dataset.h5"
 
@@ -106,10 +107,8 @@ def test_an_oc_step_walks_and_its_measurement_round_trips(robot, sim, tmp_path):
 
 
 def test_sole_lift_offsets_raise_the_sole_vertically_and_keep_it_flat(robot):
-    from cocomopl.sim.stabilizer import _sole_lifts
-
     q = double_support_posture(robot, (0.0, foot_separation(robot)), (0.0, 0.0))  # knees bent
-    lifts = _sole_lifts(robot, q[None])[0]
+    lifts = _leg_maps(robot, q[None])[0][0]
     for j, side in enumerate(("left", "right")):
         offsets = lifts[j]
         assert set(np.flatnonzero(offsets)) <= set(robot.leg_chain(side))  # only its own leg moves
@@ -121,3 +120,44 @@ def test_sole_lift_offsets_raise_the_sole_vertically_and_keep_it_flat(robot):
         assert 0.8 * 0.005 < rise[2] <= 0.005  # damping shortens the rise a little, never overshoots
         assert np.abs(rise[:2]).max() < 2e-4
         assert np.abs(pin.log3(before.rotation.T @ after.rotation)).max() < 2e-3
+
+
+def test_ankle_moment_torques_do_the_work_of_the_ground_moment(robot):
+    # τ = -J_legᵀ m: turning the leg joints by δq turns the sole by J_leg δq, and the joint
+    # torques then do work τ·δq = -m·δθ, as a ground moment m resisting the turn would
+    q = double_support_posture(robot, (0.0, foot_separation(robot)), (0.0, 0.0))
+    moments = _leg_maps(robot, q[None])[1][0]
+    rng = np.random.default_rng(2)
+    for j, side in enumerate(("left", "right")):
+        dq = np.zeros(robot.nu)
+        dq[robot.leg_chain(side)] = 1e-6 * rng.normal(size=len(robot.leg_chain(side)))
+        before = robot.frame_placement(q, robot.foot_frames[side])
+        q_turned = q.copy()
+        q_turned[7:] += dq
+        after = robot.frame_placement(q_turned, robot.foot_frames[side])
+        turn = pin.log3(after.rotation @ before.rotation.T)  # world frame
+        m = np.array([3.0, -2.0])
+        assert (moments[j] @ m) @ dq == pytest.approx(-m @ turn[:2], rel=1e-3)
+
+
+def _push_excursion(robot, sim, reference, dcm_gain: float, push_n: float) -> float:
+    """Largest forward CoM excursion (m) of a robot standing on ``reference`` pushed at the pelvis."""
+    data = mujoco.MjData(sim.mj)
+    _placed_on_floor(sim, data, reference.q[0])
+    control = Stabilizer(sim, reference, dcm_gain=dcm_gain)
+    start, excursion = data.subtree_com[0, 0], 0.0
+    for i in range(1000):  # 1 s, pushed from 0.1 s to 0.2 s
+        data.ctrl[:] = reference.q[0, 7:] + control.correction(data, i * sim.mj.opt.timestep)
+        data.xfrc_applied[sim.base_body, 0] = push_n if 100 <= i < 200 else 0.0
+        mujoco.mj_step(sim.mj, data)
+        excursion = max(excursion, data.subtree_com[0, 0] - start)
+    return excursion
+
+
+def test_dcm_feedback_resists_a_push(robot, sim):
+    reference = _standing(robot, 1.0)
+    reference.wrenches[:, :, 2] = robot.mass * 9.81 / 2  # the DCM feedback works through the soles' loads
+    without = _push_excursion(robot, sim, reference, 0.0, 150.0)
+    with_feedback = _push_excursion(robot, sim, reference, 2.0, 150.0)
+    assert 0.005 < without  # the push moves the robot
+    assert with_feedback < 0.85 * without

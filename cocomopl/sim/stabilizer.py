@@ -1,6 +1,7 @@
 """A walking stabilizer for a position-controlled humanoid, after HRP-2's.
 
-Three small corrections are added to the commanded joint angles of the legs:
+Three small corrections are added to the commanded joint angles of the legs, the second
+steered by a fourth loop, the DCM feedback:
 
 * **Body attitude feedback** (hip roll and pitch).  The pelvis roll and pitch measured by
   the IMU are compared with the reference's; with the foot on the ground, turning a hip
@@ -12,6 +13,12 @@ Three small corrections are added to the commanded joint angles of the legs:
   command yields to the difference, ``dΔ/dt = -(τ_measured - τ_reference) / D - Δ / T``:
   the foot complies with the ground instead of tipping the robot, and the leak ``T``
   returns it to the reference posture.
+* **DCM feedback** (linear inverted pendulum tracking, Kajita et al., IROS 2010; Englsberger
+  et al., IROS 2011).  The divergent component of motion ``ξ = c + ċ/ω`` of the measured
+  centre of mass ``c`` is compared with the reference's, and the ZMP is asked to move by
+  ``K (ξ - ξ_ref)``, which pushes ξ back.  Each sole in contact takes that shift of its
+  centre of pressure as an added ankle torque target, ``-J_legᵀ`` of the moment ``f_z × Δp``
+  its reference force makes, which the ankle damping control then realises.
 * **Foot force difference control** (Kajita et al., IROS 2010).  The difference of the two
   soles' vertical forces, left minus right, is compared with the reference's, and the soles
   are moved vertically against each other, ``dz/dt = (ΔF_measured - ΔF_reference) / D -
@@ -20,8 +27,8 @@ Three small corrections are added to the commanded joint angles of the legs:
   displacement becomes leg-joint offsets through the damped inverse of the leg Jacobian,
   taken on the reference.
 
-The first two act only on feet the reference has in contact; a swinging foot's corrections
-decay with the same leak.  ``cocomopl simulate --no-stabilizer`` switches it off.
+The first two act only on feet the reference has in contact; a swinging foot's ankle
+corrections decay with a faster leak, so that it lands flat.  ``cocomopl simulate --no-stabilizer`` switches it off.
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-from cocomopl.dynamics import SIDES
+from cocomopl.dynamics import GRAVITY, SIDES
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 
@@ -43,16 +50,27 @@ FORCE_LEAK = 0.2  # s: T, how fast the soles return to the reference
 LIFT = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # raise the sole, keep its orientation
 LIFT_DAMPING = 0.05  # m, of the leg Jacobian's damped inverse
 MAX_CORRECTION = 0.2  # rad, per joint
+SWING_LEAK = 0.1  # s: T of a swinging foot's ankle corrections
+# K of the DCM feedback, 1 + k/ω with k ≈ 3.4 /s: ξ's error decays at k (ω ≈ 3.4 /s here)
+DCM_GAIN = 2.0
+MAX_ZMP_SHIFT = 0.08  # m: the DCM feedback asks at most this of the ZMP, about a sole's half length
+COM_VELOCITY_FILTER = 0.01  # s: time constant of the measured CoM velocity's low-pass filter
 
 
-def _sole_lifts(robot: Robot, q: np.ndarray) -> np.ndarray:
-    """Leg-joint offsets (n, 2, nu) that raise each sole by 1 m relative to the pelvis,
-    orientation unchanged, at each configuration ``q`` (n, nq), to first order.  The leg
-    Jacobian's damped inverse gives a little less rise than asked (86 % with the knees bent
-    as in standing) and stays bounded as the knee stretches."""
+def _leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """At each configuration ``q`` (n, nq), per sole:
+
+    * lifts (n, 2, nu): leg-joint offsets that raise the sole by 1 m relative to the pelvis,
+      orientation unchanged, to first order.  The leg Jacobian's damped inverse gives a
+      little less rise than asked (86 % with the knees bent as in standing) and stays
+      bounded as the knee stretches.
+    * moments (n, 2, nu, 2): joint torques that add a ground moment of 1 N m about the
+      world x and y axes at the sole (``τ = ID - Jᵀ f``, so ``-Jᵀ``).
+    """
     model, data = robot.model, robot.model.createData()
     chains = [robot.leg_chain(side) for side in SIDES]
-    out = np.zeros((len(q), 2, robot.nu))
+    lifts = np.zeros((len(q), 2, robot.nu))
+    moments = np.zeros((len(q), 2, robot.nu, 2))
     for k, qk in enumerate(q):
         pin.computeJointJacobians(model, data, qk)
         pin.updateFramePlacements(model, data)
@@ -60,15 +78,17 @@ def _sole_lifts(robot: Robot, q: np.ndarray) -> np.ndarray:
             J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED)
             J_leg = J[:, [6 + i for i in chain]]
             # damped least squares: a stretched knee cannot shorten the leg at first order
-            out[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + LIFT_DAMPING**2 * np.eye(6), LIFT)
-    return out
+            lifts[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + LIFT_DAMPING**2 * np.eye(6), LIFT)
+            moments[k, j, chain] = -J_leg[3:5].T
+    return lifts, moments
 
 
 class Stabilizer:
     """Corrections to the commanded joint angles of one rollout (it keeps the ankle state)."""
 
-    def __init__(self, sim, reference: Motion):
+    def __init__(self, sim, reference: Motion, dcm_gain: float = DCM_GAIN):
         self.sim = sim
+        self.dcm_gain = dcm_gain
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
@@ -77,8 +97,14 @@ class Stabilizer:
         self.contact = reference.contact[keep]
         self.tau = reference.tau[keep]
         self.rpy = np.array([pin.rpy.matrixToRpy(pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()) for q in reference.q[keep]])
-        self.force_difference = reference.wrenches[keep, 0, 2] - reference.wrenches[keep, 1, 2]
-        self.lifts = _sole_lifts(self.robot, reference.q[keep])
+        self.forces = reference.wrenches[keep, :, 2]
+        self.force_difference = self.forces[:, 0] - self.forces[:, 1]
+        self.lifts, self.moments = _leg_maps(self.robot, reference.q[keep])
+        com = np.array([pin.centerOfMass(self.robot.model, self.robot.model.createData(), qk) for qk in reference.q[keep]])
+        self.omega = np.sqrt(GRAVITY / np.mean(com[:, 2]))
+        self.dcm = com[:, :2] + np.gradient(com[:, :2], self.t, axis=0) / self.omega
+        self.com = None  # the measured CoM at the previous call, for its velocity
+        self.com_velocity = np.zeros(2)
         self.ankles = np.zeros(self.robot.nu)
         self.z = 0.0
 
@@ -93,18 +119,31 @@ class Stabilizer:
         error = rpy[:2] - self.rpy[k, :2]
         rate = data.qvel[3:5]  # body-frame roll and pitch rates of the free joint
         out = np.zeros(self.robot.nu)
+        shift = self._zmp_shift(data, k)
         for j, side in enumerate(SIDES):
             roles = self.roles[side]
             ankles = [roles["ankle_pitch"], roles["ankle_roll"]]
             if self.contact[k, j]:
                 out[roles["hip_roll"]] = ATTITUDE_GAIN * error[0] + ATTITUDE_RATE_GAIN * rate[0]
                 out[roles["hip_pitch"]] = ATTITUDE_GAIN * error[1] + ATTITUDE_RATE_GAIN * rate[1]
-                torque_error = data.actuator_force[ankles] - self.tau[k, ankles]
+                moment = self.forces[k, j] * np.array([shift[1], -shift[0]])  # of the sole's CoP moved by shift
+                target = self.tau[k, ankles] + self.moments[k, j, ankles] @ moment
+                torque_error = data.actuator_force[ankles] - target
                 self.ankles[ankles] += self.dt * (-torque_error / ANKLE_DAMPING - self.ankles[ankles] / ANKLE_LEAK)
             else:
-                self.ankles[ankles] -= self.dt * self.ankles[ankles] / ANKLE_LEAK
+                self.ankles[ankles] -= self.dt * self.ankles[ankles] / SWING_LEAK
         forces = self.sim.sole_wrenches(data)[:, 2]
         error = (forces[0] - forces[1]) - self.force_difference[k]
         self.z += self.dt * (error / FORCE_DAMPING - self.z / FORCE_LEAK)
         out += self.ankles + 0.5 * self.z * (self.lifts[k, 0] - self.lifts[k, 1])
         return np.clip(out, -MAX_CORRECTION, MAX_CORRECTION)
+
+    def _zmp_shift(self, data: mujoco.MjData, k: int) -> np.ndarray:
+        """Horizontal ZMP change (2,) that brings the measured DCM back to the reference's."""
+        com = data.subtree_com[0, :2].copy()  # the world body's subtree: the whole robot
+        if self.com is not None:
+            velocity = (com - self.com) / self.dt
+            self.com_velocity += (velocity - self.com_velocity) * min(self.dt / COM_VELOCITY_FILTER, 1.0)
+        self.com = com
+        dcm = com + self.com_velocity / self.omega
+        return np.clip(self.dcm_gain * (dcm - self.dcm[k]), -MAX_ZMP_SHIFT, MAX_ZMP_SHIFT)
