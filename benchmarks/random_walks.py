@@ -7,12 +7,14 @@ between consecutive steps in the training data, 150 -> 250; 0 removes the limit)
 simulated with the stabilizer on, and with it off.  Goal (issue #4): at least 95 % walk
 without falling.
 
-    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2] [--json]
+    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2]
+        [--contact-time-constant-s 0.01] [--json]
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import multiprocessing as mp
 import sys
@@ -22,15 +24,17 @@ import numpy as np
 from tqdm import tqdm
 
 from cocomopl.cli import BUNDLED_MODEL
+from cocomopl.errors import Error
+from cocomopl.sim.model import CONTACT_TIME_CONSTANT, check_contact_time_constant
 
 
-def run_one(lengths_mm: list[float]) -> dict:
+def run_one(lengths_mm: list[float], contact_time_constant: float) -> dict:
     from cocomopl.pipeline import generate_walk
     from cocomopl.sim.model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
     walk = generate_walk([x / 1000 for x in lengths_mm], BUNDLED_MODEL)
-    sim = build_sim_model(walk.robot, visuals=False)
+    sim = build_sim_model(walk.robot, visuals=False, contact_time_constant=contact_time_constant)
     out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration}
     for name, stabilizer in (("stabilizer", True), ("no_stabilizer", False)):
         rollout = simulate(sim, walk.motion, stabilizer=stabilizer)
@@ -59,14 +63,21 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-change-mm", type=float, default=100.0)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--contact-time-constant-s", type=float, default=CONTACT_TIME_CONSTANT,
+                        help="sole-floor contact softness in s (default: %(default)s)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    try:
+        check_contact_time_constant(args.contact_time_constant_s)
+    except Error as exc:
+        parser.error(str(exc))
     rng = np.random.default_rng(args.seed)
     sequences = [random_lengths(rng, args.max_change_mm) for _ in range(args.n)]
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
-        results = list(tqdm(pool.imap(run_one, sequences), total=len(sequences), desc="random walks", file=sys.stderr))
-    summary = {"n": args.n, "seed": args.seed, "max_change_mm": args.max_change_mm, "wall_time_s": time.perf_counter() - started}
+        results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
+    summary = {"n": args.n, "seed": args.seed, "max_change_mm": args.max_change_mm,
+               "contact_time_constant_s": args.contact_time_constant_s, "wall_time_s": time.perf_counter() - started}
     for name in ("stabilizer", "no_stabilizer"):
         walked = [not r[name]["fell"] for r in results]
         summary[name] = {

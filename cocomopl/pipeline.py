@@ -75,8 +75,16 @@ def generate_walk(
     return GeneratedWalk(robot, motion, steps, generation_s, placement_s, messages)
 
 
-def simulate_walk(robot: Robot, motion: Motion, stabilizer: bool = True, video: Path | None = None, progress: bool = False):
+def simulate_walk(
+    robot: Robot,
+    motion: Motion,
+    stabilizer: bool = True,
+    video: Path | None = None,
+    progress: bool = False,
+    contact_time_constant: float | None = None,
+):
     """Simulate ``motion`` in MuJoCo; with ``video``, also render it there (MP4).
+    ``contact_time_constant`` (s) sets the sole-floor softness (default: the model's).
 
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
     """
@@ -85,7 +93,7 @@ def simulate_walk(robot: Robot, motion: Motion, stabilizer: bool = True, video: 
     from cocomopl.sim.rollout import simulate
     from cocomopl.sim.video import render_video
 
-    sim = build_sim_model(robot, visuals=video is not None)
+    sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
     rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
@@ -99,6 +107,7 @@ def walk_report(
     stabilizer: bool = True,
     video: bool = True,
     progress: bool = False,
+    contact_time_constant: float | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -116,7 +125,7 @@ def walk_report(
     out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")
     walk = generate_walk(lengths, model_path)
     rollout, metrics = simulate_walk(
-        walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress
+        walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress, contact_time_constant
     )
     motions = {"generated": walk.motion, "simulated": rollout.measured}
     files = [out_dir / "motions.h5"]
@@ -130,6 +139,7 @@ def walk_report(
         "lengths_mm": [1000 * x for x in lengths],
         "steps": [s.spec.name for s in walk.steps],
         "stabilizer": stabilizer,
+        "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
         **metrics,
         "generation_s": walk.generation_s,
         "placement_s": walk.placement_s,
@@ -146,7 +156,13 @@ M_GEN = (0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15)  # the paper's ge
 M_OPT = (0.15, 0.15, 0.25, 0.35, 0.40, 0.35, 0.25, 0.15, 0.15)  # its OC counterpart (400 for 390)
 
 
-def reproduce_report(out_dir: Path, model_path: str | Path, dataset_path: str | Path, progress: bool = False) -> dict:
+def reproduce_report(
+    out_dir: Path,
+    model_path: str | Path,
+    dataset_path: str | Path,
+    progress: bool = False,
+    contact_time_constant: float | None = None,
+) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_opt from chained OCPs
     (the steps of the dataset at ``dataset_path``, and the transitions it lacks solved here)
     and the Kajita baseline on M_gen's footsteps and timing, all three simulated with the
@@ -180,7 +196,9 @@ def reproduce_report(out_dir: Path, model_path: str | Path, dataset_path: str | 
     planned = {"MP": walk.motion, "OC": m_opt, "Kajita": kajita}
     simulated, metrics = {}, {}
     for name, motion in planned.items():
-        rollout, metrics[name] = simulate_walk(robot, motion, stabilizer=True, progress=progress)
+        rollout, metrics[name] = simulate_walk(
+            robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant
+        )
         simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
     table = {
         "OC planned (joint torques)": mean_torque(m_opt),
@@ -200,6 +218,7 @@ def reproduce_report(out_dir: Path, model_path: str | Path, dataset_path: str | 
         # total variation of the contact forces: not diluted by the standing before and after
         "mp_smoother_than_kajita": metrics["MP"]["force_variation_over_weight"] < metrics["Kajita"]["force_variation_over_weight"],
         "metrics": metrics,
+        "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
         "m_opt_solve_s": solve_s,
         "m_opt_solver": m_opt.meta.get("solver"),
         "generation_s": walk.generation_s,

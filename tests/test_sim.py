@@ -87,6 +87,9 @@ def test_standing_robot_carries_its_weight_on_its_soles(robot, sim, stabilizer):
     total = rollout.measured.wrenches[..., 2].sum(axis=1)
     assert np.abs(total[-20:] / weight - 1).max() < 0.02  # at rest the floor carries exactly the weight
     assert rollout.measured.contact[-1].all()
+    for side in ("left", "right"):  # the soft contact (rubber soles) gives a little, under a millimetre
+        sole_height = robot.frame_placement(rollout.measured.q[-1], robot.foot_frames[side]).translation[2]
+        assert -1e-3 < sole_height < 0.0
     # and the ZMP of the measured wrenches lies between the feet
     zmp = rollout.measured.zmp[-1]
     assert abs(zmp[1]) < foot_separation(robot) / 2

@@ -5,6 +5,8 @@ import json
 import h5py
 import pytest
 
+from cocomopl.motion_file import read_motion
+
 from test_cli_errors import assert_one_line_error, run_cli
 
 
@@ -51,9 +53,11 @@ def test_simulate_a_motion_file(walk_report, tmp_path):
     source = tmp_path / "generated.h5"
     assert run_cli("generate", "--lengths-mm", "250,250", "--out", str(source)).returncode == 0
     measured = tmp_path / "measured.h5"
-    result = run_cli("simulate", str(source), "--no-stabilizer", "--out", str(measured), "--json")
+    result = run_cli("simulate", str(source), "--no-stabilizer", "--contact-time-constant-s", "0.02",
+                     "--out", str(measured), "--json")
     payload = json.loads(result.stdout)
     assert payload["stabilizer"] is False and measured.exists()
+    assert payload["contact_time_constant_s"] == 0.02 == read_motion(measured).meta["contact_time_constant_s"]
     assert (result.returncode == 1) == payload["fell"]
 
 
@@ -64,6 +68,8 @@ def test_simulate_a_motion_file(walk_report, tmp_path):
         (("walk", "--lengths-mm", "250,abc"), ["not a number"]),
         (("walk", "--lengths-mm", "250"), ["at least two"]),
         (("simulate", "missing.h5"), ["not found"]),
+        (("walk", "--contact-time-constant-s", "0.001"), ["contact time constant", "0.002"]),
+        (("simulate", "missing.h5", "--contact-time-constant-s", "nan"), ["positive finite"]),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, words):

@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.dynamics import SIDES
+from cocomopl.errors import Error
 from cocomopl.robot import Robot
 
 TIMESTEP = 0.001  # s: a 1 kHz control and integration loop
@@ -29,8 +30,12 @@ SOLE_THICKNESS = 0.01  # m, the contact box below the sole plane
 # the knee 10 000 N m/rad and the elbow 600 N m/rad.
 FULL_TORQUE_ERROR = 0.03  # rad
 SERVO_DAMPING_TIME = 0.02  # s: kv = kp * this
-# contact softness: a 5 ms, critically damped constraint (at least 2 timesteps)
-CONTACT_SOLREF = "0.005 1"
+# Contact softness: the time constant of a critically damped sole-floor constraint.  The
+# robots' soles are rubber (HRP-2's ankles also have a rubber bush); at 10 ms TALOS standing
+# sinks 0.2 mm (0.06 mm at 5 ms, 0.6 mm at 20 ms).  Softer contacts lower the touchdown
+# peaks; README "Stage 3: simulation" measures what else they change.
+CONTACT_TIME_CONSTANT = 0.01  # s
+MAX_CONTACT_TIME_CONSTANT = 0.1  # s: softer soles sink centimetres
 
 
 @dataclass
@@ -42,6 +47,7 @@ class SimModel:
     sole_geoms: dict[str, int]  # side -> geom id of the sole box
     sole_sites: dict[str, int]  # side -> site id at the sole frame
     base_body: int
+    contact_time_constant: float  # s
 
     def qpos(self, q: np.ndarray) -> np.ndarray:
         """MuJoCo ``qpos`` from a Pinocchio configuration (quaternion x,y,z,w -> w,x,y,z)."""
@@ -154,8 +160,9 @@ def _actuators(robot: Robot) -> str:
     return "\n".join(lines)
 
 
-def mjcf(robot: Robot, visuals: bool = True) -> str:
+def mjcf(robot: Robot, visuals: bool = True, contact_time_constant: float = CONTACT_TIME_CONSTANT) -> str:
     """The MJCF text of the robot on a flat floor."""
+    solref = f"{contact_time_constant:.6g} 1"
     meshes: dict[str, str] = {}
     visual = robot.visual_model() if visuals else None
     body = _body(robot, 1, visual, meshes)
@@ -165,7 +172,7 @@ def mjcf(robot: Robot, visuals: bool = True) -> str:
 <visual><global offwidth="1280" offheight="720"/><headlight ambient="0.4 0.4 0.4" diffuse="0.5 0.5 0.5"/></visual>
 <default>
   <default class="sole"><geom contype="1" conaffinity="1" condim="3" friction="{FRICTION} 0.005 0.0001"
-    solref="{CONTACT_SOLREF}" rgba="0.2 0.2 0.2 1"/></default>
+    solref="{solref}" rgba="0.2 0.2 0.2 1"/></default>
   <default class="visual"><geom contype="0" conaffinity="0" group="1" mass="0" rgba="0.55 0.6 0.7 1"/></default>
 </default>
 <asset>
@@ -176,7 +183,7 @@ def mjcf(robot: Robot, visuals: bool = True) -> str:
 <worldbody>
 <light pos="0 0 4" dir="0 0 -1" directional="true"/>
 <geom name="floor" type="plane" size="0 0 0.05" material="grid" contype="1" conaffinity="1" condim="3"
-  friction="{FRICTION} 0.005 0.0001" solref="{CONTACT_SOLREF}"/>
+  friction="{FRICTION} 0.005 0.0001" solref="{solref}"/>
 {body}
 </worldbody>
 <actuator>
@@ -185,9 +192,34 @@ def mjcf(robot: Robot, visuals: bool = True) -> str:
 </mujoco>"""
 
 
-def build_sim_model(robot: Robot, visuals: bool = True) -> SimModel:
-    """Compile the MuJoCo model of ``robot``; ``visuals=False`` skips the meshes (faster)."""
-    mj = mujoco.MjModel.from_xml_string(mjcf(robot, visuals))
+def check_contact_time_constant(value: float) -> float:
+    """``value`` (s) if it is a usable contact time constant, else :class:`Error`: under two
+    timesteps MuJoCo silently raises it, and over ``MAX_CONTACT_TIME_CONSTANT`` the soles sink
+    centimetres."""
+    if not 2 * TIMESTEP <= value <= MAX_CONTACT_TIME_CONSTANT:
+        raise Error(f"contact time constant {value} s is outside {2 * TIMESTEP:g}-{MAX_CONTACT_TIME_CONSTANT:g} s")
+    return value
+
+
+def build_sim_model(robot: Robot, visuals: bool = True, contact_time_constant: float | None = None) -> SimModel:
+    """Compile the MuJoCo model of ``robot``.
+
+    Parameters
+    ----------
+    robot : the robot, as the OCPs use it
+    visuals : attach the URDF's meshes for rendering (``False`` is faster)
+    contact_time_constant : softness of the sole-floor contact in s (MuJoCo's ``solref``
+        time constant, critically damped); ``None`` takes ``CONTACT_TIME_CONSTANT``
+
+    Raises
+    ------
+    Error
+        if the time constant is unusable (:func:`check_contact_time_constant`).
+    """
+    if contact_time_constant is None:
+        contact_time_constant = CONTACT_TIME_CONSTANT
+    check_contact_time_constant(contact_time_constant)
+    mj = mujoco.MjModel.from_xml_string(mjcf(robot, visuals, contact_time_constant))
     names = [mj.joint(j).name for j in range(1, mj.njnt)]
     if names != robot.joint_names or mj.nu != robot.nu:
         raise RuntimeError("MuJoCo joint order differs from the robot's")  # a bug, not user input
@@ -197,4 +229,5 @@ def build_sim_model(robot: Robot, visuals: bool = True) -> SimModel:
         sole_geoms={side: mj.geom(f"{side}_sole").id for side in SIDES},
         sole_sites={side: mj.site(f"{side}_sole").id for side in SIDES},
         base_body=mj.body(robot.model.names[1]).id,
+        contact_time_constant=contact_time_constant,
     )

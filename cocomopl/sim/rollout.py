@@ -157,5 +157,6 @@ def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: b
             "fell": fell,
             "fall_time_s": fall_time,
             "timestep_s": float(sim.mj.opt.timestep),
+            "contact_time_constant_s": sim.contact_time_constant,
         },
     )
