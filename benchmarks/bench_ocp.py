@@ -105,10 +105,10 @@ def cocomopl_cyclic(length: float) -> dict:
 
 def regenerate() -> float:
     from cocomopl.dataset.generate import generate
-    from cocomopl.dataset.plan import PAPER_LENGTHS_M
+    from cocomopl.dataset.plan import DEFAULT_LENGTHS_M
 
     with tempfile.TemporaryDirectory() as tmp:
-        summary = generate(Path(tmp) / "bench.h5", PAPER_LENGTHS_M, command="benchmarks/bench_ocp.py --regenerate")
+        summary = generate(Path(tmp) / "bench.h5", DEFAULT_LENGTHS_M, command="benchmarks/bench_ocp.py --regenerate")
     return summary["wall_time_s"]
 
 
@@ -117,7 +117,7 @@ def main() -> int:
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("dataset", nargs="?", default=str(BUNDLED_DATASET))
-    parser.add_argument("--regenerate", action="store_true", help="also time a fresh generation of the 23 OCPs")
+    parser.add_argument("--regenerate", action="store_true", help="also time a fresh generation of the 28 OCPs")
     parser.add_argument("--length-mm", type=float, default=250.0, help="step length of the side-by-side comparison")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()

@@ -2,8 +2,10 @@
 
 Each sequence draws its 9 step lengths uniformly from 150-400 mm (the training range),
 the last repeating the one before it (a stop starts in its own gait), each within
-``--max-change-mm`` of the one before (default 100 mm: the largest change
-between consecutive steps in the training data, 150 -> 250; 0 removes the limit), is generated with the bundled model, placed in the world (with the dynamics filter) and
+``--max-change-mm`` of the one before (default 100 mm: the largest change between
+consecutive steps in the paper's training set, 150 -> 250; the bundled set's transitions
+change by 50 mm; 0 removes the limit), is generated with the bundled model, placed in the
+world (with the dynamics filter) and
 simulated with the stabilizer on, and with it off.  Goal (issue #4): at least 95 % walk
 without falling.
 

@@ -421,8 +421,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen = dataset.add_parser("generate", help="solve the step OCPs and write the training dataset (HDF5)")
     gen.add_argument(
         "--lengths-mm",
-        default="150,250,300,350,400",
-        help="training step lengths in millimetres, comma-separated (default: the paper's 150,250,300,350,400)",
+        default="150,200,250,300,350,400",
+        help="training step lengths in millimetres, comma-separated (default: the paper's 150,250,300,350,400 "
+        "and 200)",
     )
     gen.add_argument("--robot", default="talos", help="bundled robot name or description .json (default: talos)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", help="output HDF5 file (default: %(default)s)")

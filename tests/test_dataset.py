@@ -11,17 +11,18 @@ import h5py
 import pytest
 
 from cocomopl.cli import main
-from cocomopl.dataset.plan import training_specs
+from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, training_specs
 from cocomopl.motion_file import read_motions
 
 from conftest import SMALL, SMALL_LENGTH
 
 
-def test_paper_plan_has_23_ocps():
+def test_plan_has_the_papers_23_ocps_and_28_by_default():
     specs = training_specs((0.15, 0.25, 0.30, 0.35, 0.40))
     kinds = [s.kind for s in specs]
     assert len(specs) == 23
     assert (kinds.count("start"), kinds.count("cyclic"), kinds.count("transition"), kinds.count("stop")) == (5, 5, 8, 5)
+    assert len(training_specs(DEFAULT_LENGTHS_M)) == 28
 
 
 def test_info_json(small_dataset, capsys):
@@ -96,11 +97,11 @@ def test_dask_cluster_path(tmp_path):
 
 
 def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
-    """The dataset that ships in the package: made by the project's command, all 46 motions,
+    """The dataset that ships in the package: made by the project's command, all 56 motions,
     every check passing."""
     assert main(["dataset", "info", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert (info["motions"], info["signals"], info["trajectories"]) == (46, 36, 1656)
+    assert (info["motions"], info["signals"], info["trajectories"]) == (56, 36, 2016)
     assert info["all_converged"] is True
     assert info["command"].startswith("cocomopl dataset generate")
     assert info["versions"]["crocoddyl"] == "3.2.1" and info["created"]
