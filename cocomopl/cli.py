@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cocomopl.dataset.plan import DEFAULT_LENGTHS_M
 from cocomopl.errors import Error
 
 BUNDLED_DATASET = Path(__file__).parent / "data" / "dataset.h5"
@@ -421,9 +422,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen = dataset.add_parser("generate", help="solve the step OCPs and write the training dataset (HDF5)")
     gen.add_argument(
         "--lengths-mm",
-        default="150,200,250,300,350,400",
+        default=",".join(f"{1000 * x:g}" for x in DEFAULT_LENGTHS_M),
         help="training step lengths in millimetres, comma-separated (default: the paper's 150,250,300,350,400 "
-        "and 200)",
+        "and 200: %(default)s)",
     )
     gen.add_argument("--robot", default="talos", help="bundled robot name or description .json (default: talos)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", help="output HDF5 file (default: %(default)s)")

@@ -100,7 +100,9 @@ class Stabilizer:
         self.forces = reference.wrenches[keep, :, 2]
         self.force_difference = self.forces[:, 0] - self.forces[:, 1]
         self.lifts, self.moments = _leg_maps(self.robot, reference.q[keep])
-        com = np.array([pin.centerOfMass(self.robot.model, self.robot.model.createData(), qk) for qk in reference.q[keep]])
+        model = self.robot.model
+        data = model.createData()
+        com = np.array([pin.centerOfMass(model, data, qk) for qk in reference.q[keep]])
         self.omega = np.sqrt(GRAVITY / np.mean(com[:, 2]))
         self.dcm = com[:, :2] + np.gradient(com[:, :2], self.t, axis=0) / self.omega
         self.com = None  # the measured CoM at the previous call, for its velocity
