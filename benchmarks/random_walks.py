@@ -4,13 +4,13 @@ Each sequence draws its 9 step lengths uniformly from 150-400 mm (the training r
 the last repeating the one before it (a stop starts in its own gait), each within
 ``--max-change-mm`` of the one before (default 100 mm: the largest change between
 consecutive steps in the paper's training set, 150 -> 250; the bundled set's transitions
-change by 50 mm; 0 removes the limit), is generated with the bundled model, placed in the
+change by 50 mm; 0 removes the limit), is generated with the bundled model (or ``--model``), placed in the
 world (with the dynamics filter) and
 simulated with the stabilizer on, and with it off.  Goal (issue #4): at least 95 % walk
 without falling.
 
     python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2]
-        [--contact-time-constant-s 0.01] [--json]
+        [--contact-time-constant-s 0.01] [--model MODEL] [--json]
 """
 
 from __future__ import annotations
@@ -30,12 +30,12 @@ from cocomopl.errors import Error
 from cocomopl.sim.model import CONTACT_TIME_CONSTANT, check_contact_time_constant
 
 
-def run_one(lengths_mm: list[float], contact_time_constant: float) -> dict:
+def run_one(lengths_mm: list[float], contact_time_constant: float, model: str) -> dict:
     from cocomopl.pipeline import generate_walk
     from cocomopl.sim.model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
-    walk = generate_walk([x / 1000 for x in lengths_mm], BUNDLED_MODEL)
+    walk = generate_walk([x / 1000 for x in lengths_mm], model)
     sim = build_sim_model(walk.robot, visuals=False, contact_time_constant=contact_time_constant)
     out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration}
     for name, stabilizer in (("stabilizer", True), ("no_stabilizer", False)):
@@ -67,6 +67,7 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--contact-time-constant-s", type=float, default=CONTACT_TIME_CONSTANT,
                         help="sole-floor contact softness in s (default: %(default)s)")
+    parser.add_argument("--model", default=str(BUNDLED_MODEL), help="primitives model file (default: the bundled one)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     try:
@@ -77,8 +78,8 @@ def main() -> int:
     sequences = [random_lengths(rng, args.max_change_mm) for _ in range(args.n)]
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
-        results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
-    summary = {"n": args.n, "seed": args.seed, "max_change_mm": args.max_change_mm,
+        results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s, model=args.model), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
+    summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
                "contact_time_constant_s": args.contact_time_constant_s, "wall_time_s": time.perf_counter() - started}
     for name in ("stabilizer", "no_stabilizer"):
         walked = [not r[name]["fell"] for r in results]

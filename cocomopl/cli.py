@@ -77,13 +77,14 @@ def cmd_dataset_generate(args) -> int:
     from dataclasses import replace
 
     from cocomopl.dataset.generate import generate
-    from cocomopl.dataset.plan import parse_lengths_mm
+    from cocomopl.dataset.plan import parse_lengths_mm, parse_transitions_mm
     from cocomopl.ocp.models import OCPSettings
     from cocomopl.ocp.posture import double_support_posture
     from cocomopl.ocp.problems import foot_separation
     from cocomopl.robot import Robot
 
     lengths = parse_lengths_mm(args.lengths_mm)
+    extra = parse_transitions_mm(args.extra_transitions_mm, lengths)
     robot = Robot(args.robot)
     for L in lengths:  # a stance the robot cannot take is rejected before any solving
         if L > robot.max_step_length:
@@ -104,6 +105,7 @@ def cmd_dataset_generate(args) -> int:
     summary = generate(
         out,
         lengths,
+        extra,
         robot_name=args.robot,
         settings=settings,
         workers=args.workers,
@@ -425,6 +427,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=",".join(f"{1000 * x:g}" for x in DEFAULT_LENGTHS_M),
         help="training step lengths in millimetres, comma-separated (default: the paper's 150,250,300,350,400 "
         "and 200: %(default)s)",
+    )
+    gen.add_argument(
+        "--extra-transitions-mm",
+        metavar="A-B,...",
+        default="",
+        help="extra transitions between training lengths that are not neighbours, in millimetres, both ways, "
+        "e.g. 150-250,250-350 (default: none)",
     )
     gen.add_argument("--robot", default="talos", help="bundled robot name or description .json (default: talos)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", help="output HDF5 file (default: %(default)s)")

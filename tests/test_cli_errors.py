@@ -40,6 +40,13 @@ def test_bad_lengths(tmp_path, lengths, words):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_extra_transition_between_untrained_lengths(tmp_path):
+    result = run_cli("dataset", "generate", "--lengths-mm", "150,200", "--extra-transitions-mm", "150-250",
+                     "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "150-250", "250 mm is not one of the training lengths")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_length_beyond_the_robots_reach(tmp_path):
     result = run_cli("dataset", "generate", "--lengths-mm", "150,700", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "700 mm", "beyond talos's reach")

@@ -11,7 +11,8 @@ import h5py
 import pytest
 
 from cocomopl.cli import main
-from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, training_specs
+from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, parse_transitions_mm, training_specs
+from cocomopl.errors import Error
 from cocomopl.motion_file import read_motions
 
 from conftest import SMALL, SMALL_LENGTH
@@ -23,6 +24,25 @@ def test_plan_has_the_papers_23_ocps_and_28_by_default():
     assert len(specs) == 23
     assert (kinds.count("start"), kinds.count("cyclic"), kinds.count("transition"), kinds.count("stop")) == (5, 5, 8, 5)
     assert len(training_specs(DEFAULT_LENGTHS_M)) == 28
+    specs = training_specs(DEFAULT_LENGTHS_M, ((0.15, 0.25), (0.25, 0.35)))
+    assert len(specs) == 32
+    assert {(s.start_length, s.end_length) for s in specs if s.kind == "transition"} >= {(0.25, 0.35), (0.35, 0.25)}
+
+
+def test_extra_transitions_parse_and_deduplicate():
+    lengths = (0.15, 0.2, 0.25)
+    assert parse_transitions_mm("250-150, 150-250", lengths) == ((0.15, 0.25),)
+    assert len(training_specs(lengths, parse_transitions_mm("150-200", lengths))) == 3 * 3 + 2 * 2  # already neighbours
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [("150-300", "300 mm is not one of the training lengths"), ("150", "joined by '-'"),
+     ("150-150", "cyclic step"), ("150-x", "not a number")],
+)
+def test_extra_transitions_errors(text, message):
+    with pytest.raises(Error, match=message):
+        parse_transitions_mm(text, (0.15, 0.25))
 
 
 def test_info_json(small_dataset, capsys):

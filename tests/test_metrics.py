@@ -48,6 +48,18 @@ def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=No
     )
 
 
+def test_landing_speed_of_a_body_dropping_onto_one_sole(robot):
+    """The whole robot moves down at 0.3 m/s and forward at 0.4 m/s until its left sole
+    touches: every point of it, the sole included, lands at 0.5 m/s; the right sole never lands."""
+    t = np.linspace(0.0, 0.1, 11)
+    fz = np.zeros((11, 2))
+    fz[6:, 0] = 100.0
+    motion = synthetic(robot, t, fz=fz)
+    motion.v[:6, 0], motion.v[:6, 2] = 0.4, -0.3  # base frame = world frame in the reference posture
+    assert np.allclose(metrics.landing_speeds(robot, motion), [0.5])
+    assert metrics.landing_speeds(robot, synthetic(robot, t)).size == 0
+
+
 def without_duplicates(motion: Motion) -> Motion:
     keep = motion.kept_samples()
     return dataclasses.replace(

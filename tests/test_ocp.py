@@ -10,7 +10,7 @@ from cocomopl.analysis.feasibility import check_motion, tolerances
 from cocomopl.dataset.continuity import step_mismatch
 from cocomopl.dataset.plan import successors
 from cocomopl.dataset.signals import training_signals
-from cocomopl.dynamics import finite_difference_accelerations, inverse_dynamics_residual
+from cocomopl.dynamics import finite_difference_accelerations, inverse_dynamics_residual, sole_placements
 from cocomopl.motion_file import read_motions
 from cocomopl.robot import mirror_motion
 
@@ -50,6 +50,16 @@ def test_limits_friction_and_unilateral_forces(robot, motions):
         assert r["friction_ratio"] <= 1.0, name
         assert r["min_normal_force"] >= 0.0, name
         assert r["stance_foot_slip"] <= TOLERANCES["stance_foot_slip"], name
+
+
+def test_swing_soles_keep_to_their_lanes(robot, motions):
+    """Each sole's lateral position stays within 2 cm of where it starts: a swinging sole
+    passes beside the stance sole and lands in its lane, the closing step of a stop too
+    (a constraint placed relative to the origin instead of the stance sole once pushed
+    that step's sole 18 cm out and slammed it back at 1.7 m/s)."""
+    for name, m in motions.items():
+        y = sole_placements(robot, m.q)[:, :, 1]
+        assert np.abs(y - y[0]).max() < 0.02, name
 
 
 def test_mirror_of_mirror_is_identity_and_mirrored_motion_is_dynamic(robot, motions):

@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.analysis.feasibility import polygon_margin, support_polygon
-from cocomopl.dynamics import GRAVITY, pelvis_placements, sole_placements
+from cocomopl.dynamics import GRAVITY, SIDES, pelvis_placements, sole_placements
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
@@ -282,6 +282,24 @@ def end_balance_margin(robot: Robot, motion: Motion, force_ratio: float = SLIP_F
     return polygon_margin(support_polygon(robot, q, loaded), com[:2])
 
 
+def landing_speeds(robot: Robot, motion: Motion) -> np.ndarray:
+    """Speed (m/s) of each sole just before each of its touchdowns.
+
+    A touchdown is a sample after which a sole in the air is in contact: the pre-impact
+    sample of a planned motion, the last airborne sample (within one recording interval of
+    the contact) of a measured one.  On a stiff position-controlled robot the landing
+    speed, not the planned force, sets the force peak.
+    """
+    model, data = robot.model, robot.model.createData()
+    speeds = []
+    for k, j in np.argwhere(motion.contact[1:] & ~motion.contact[:-1]):
+        pin.forwardKinematics(model, data, motion.q[k], motion.v[k])
+        pin.updateFramePlacements(model, data)
+        velocity = pin.getFrameVelocity(model, data, robot.foot_frames[SIDES[j]], pin.LOCAL_WORLD_ALIGNED)
+        speeds.append(float(np.linalg.norm(velocity.linear)))
+    return np.array(speeds)
+
+
 def _finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
@@ -302,7 +320,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     ``peak_force_over_weight``, ``max_force_rate`` and ``max_force_rate_raw`` (N/s),
     ``force_rate_rms`` (N/s), ``force_variation_over_weight`` (:func:`force_variation` over
     the body weight), ``knee_torque_peak`` (N m), ``foot_slip_m``,
-    ``end_balance_margin_m``, and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
+    ``end_balance_margin_m``, ``max_landing_speed`` (m/s, :func:`landing_speeds`), and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
     ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
     """
     walked = measured if reference is None else truncated(measured, reference.duration)
@@ -319,6 +337,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
         "knee_torque_peak": float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
         "foot_slip_m": foot_slip(robot, measured),
         "end_balance_margin_m": _finite_or_none(end_balance_margin(robot, measured)),
+        "max_landing_speed": float(landing_speeds(robot, measured).max(initial=0.0)),
         "zmp_rms_error": None,
         "tracking_rms_rad": None,
         "tracking_max_rad": None,

@@ -132,6 +132,7 @@ class _Executor:
 def generate(
     output: str | Path,
     lengths: tuple[float, ...],
+    extra_transitions: tuple[tuple[float, float], ...] = (),
     robot_name: str = "talos",
     settings: OCPSettings | None = None,
     workers: int | None = None,
@@ -139,7 +140,8 @@ def generate(
     command: str = "",
     progress: bool = True,
 ) -> dict:
-    """Solve the training set for ``lengths`` (m) and write the dataset to ``output``.
+    """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them)
+    and write the dataset to ``output``.
 
     Returns a summary: solved, reused, failed steps and timings.
     """
@@ -150,7 +152,7 @@ def generate(
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
     writable_folder(parts, f"the working folder {parts} of {output}")
-    specs = training_specs(lengths)
+    specs = training_specs(lengths, extra_transitions)
     done: dict[StepSpec, Motion] = {}
     for spec in specs:
         if _part_path(parts, spec).exists():
@@ -216,6 +218,7 @@ def generate(
         "robot": robot.name,
         "robot_inertia_symmetrisation_m": robot.inertia_asymmetry,
         "lengths_m": list(lengths),
+        "extra_transitions_m": [list(pair) for pair in extra_transitions],
         "ocps": [s.name for s in specs],
         "failed": failed,
         "all_converged": not failed,

@@ -2,7 +2,8 @@
 
 The paper's set for lengths ``L1 < ... < Ln``: a start, cyclic and stop step per length
 and transitions between neighbouring lengths in both directions; 5 lengths give 23 OCPs,
-6 give 28.
+6 give 28.  Extra transitions between lengths further apart can be added (README, "Training
+set", measures M_gen's 150 <-> 250 and 250 <-> 350 mm: 32 OCPs).
 Cyclic steps come first: every other step starts or ends in a cyclic step's start state.
 """
 
@@ -49,11 +50,38 @@ def parse_lengths_mm(text: str) -> tuple[float, ...]:
     return tuple(sorted(lengths))
 
 
-def training_specs(lengths: tuple[float, ...]) -> list[StepSpec]:
-    """The right-support OCPs of a training set, cyclic steps first."""
+def parse_transitions_mm(text: str, lengths: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
+    """Parse extra transitions such as ``150-250,250-350`` (mm) into pairs of lengths (m).
+
+    Raises
+    ------
+    Error
+        Unless every pair joins two different lengths of ``lengths``.
+    """
+    pairs = []
+    for item in (s.strip() for s in str(text).split(",") if s.strip()):
+        ends = item.split("-")
+        if len(ends) != 2:
+            raise Error(f"transition {item!r} is not two lengths in millimetres joined by '-', e.g. 150-250")
+        a, b = (length_mm_to_m(end) for end in ends)
+        for end in (a, b):
+            if end not in lengths:
+                raise Error(f"transition {item!r}: {end * 1000:g} mm is not one of the training lengths")
+        if a == b:
+            raise Error(f"transition {item!r} joins a length to itself (that is a cyclic step)")
+        pairs.append((min(a, b), max(a, b)))
+    return tuple(sorted(set(pairs)))
+
+
+def training_specs(lengths: tuple[float, ...], extra_transitions: tuple[tuple[float, float], ...] = ()) -> list[StepSpec]:
+    """The right-support OCPs of a training set, cyclic steps first.
+
+    Transitions join neighbouring ``lengths`` and each pair of ``extra_transitions``, both ways.
+    """
     specs = [StepSpec("cyclic", L, L) for L in lengths]
     specs += [StepSpec("start", 0.0, L) for L in lengths]
-    for a, b in zip(lengths[:-1], lengths[1:]):
+    pairs = sorted(set(zip(lengths[:-1], lengths[1:])) | set(extra_transitions))
+    for a, b in pairs:
         specs += [StepSpec("transition", a, b), StepSpec("transition", b, a)]
     specs += [StepSpec("stop", L, 0.0) for L in lengths]
     return specs

@@ -29,8 +29,11 @@ class OCPSettings:
 
     dt: float = 0.025
     ds_duration: float = 0.15
-    ss_duration: float = 0.70
-    ss_search_step: float = 0.1  # single-support duration search, per length (0: no search)
+    ss_duration: float = 0.80
+    # single-support duration search per length, s (0: none).  Off by default: the cost is
+    # flat within 4 % over 0.7-1.1 s, so the search picked 0.7-1.0 s irregularly across
+    # lengths, and the primitives could not interpolate transitions between such gaits
+    ss_search_step: float = 0.0
     ss_bounds: tuple[float, float] = (0.5, 1.2)
     start_ds_duration: float = 0.40
     rest_duration: float = 0.40
@@ -119,15 +122,14 @@ def joint_limit_cost(robot: Robot, state, nu: int, settings: OCPSettings):
     return crocoddyl.CostModelResidual(state, activation, residual)
 
 
-def swing_clearance_cost(robot: Robot, state, swing: str, nu: int, min_height: float, min_lateral: float):
-    """Swing sole above ``min_height`` and at least ``min_lateral`` from the stance sole (y, step frame)."""
-    sign = 1.0 if swing == "left" else -1.0
+def swing_clearance_cost(robot: Robot, state, swing: str, nu: int, min_height: float, min_lateral: float, stance_y: float):
+    """Swing sole above ``min_height`` and at least ``min_lateral`` beside the stance sole at ``stance_y`` (m)."""
     lower = np.array([-INF, -INF, min_height])
     upper = np.array([INF, INF, INF])
-    if sign > 0:
-        lower[1] = min_lateral
+    if swing == "left":  # the left sole passes on the stance sole's left
+        lower[1] = stance_y + min_lateral
     else:
-        upper[1] = -min_lateral
+        upper[1] = stance_y - min_lateral
     residual = crocoddyl.ResidualModelFrameTranslation(state, robot.foot_frames[swing], np.zeros(3), nu)
     activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(lower, upper))
     return crocoddyl.CostModelResidual(state, activation, residual)
@@ -182,9 +184,18 @@ def contact_knot(
     costs.addCost("posture", posture_cost(robot, state, nu, x_ref, settings), 1.0)
     costs.addCost("joint_limits", joint_limit_cost(robot, state, nu, settings), settings.w_limits)
     if swing is not None:
+        (support,) = stance.values()  # single support: one stance sole
         costs.addCost(
             "swing_clearance",
-            swing_clearance_cost(robot, state, swing, nu, clearance, settings.swing_lateral_gap + 2 * robot.sole.half_width),
+            swing_clearance_cost(
+                robot,
+                state,
+                swing,
+                nu,
+                clearance,
+                settings.swing_lateral_gap + 2 * robot.sole.half_width,
+                support.translation[1],
+            ),
             settings.w_constraint * 10,
         )
         if swing_guide is not None:
