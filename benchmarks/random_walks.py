@@ -27,6 +27,7 @@ from tqdm import tqdm
 
 from cocomopl.cli import BUNDLED_MODEL
 from cocomopl.errors import Error
+from cocomopl.primitives.model_file import load_model
 from cocomopl.sim.model import CONTACT_TIME_CONSTANT, check_contact_time_constant
 
 
@@ -72,6 +73,7 @@ def main() -> int:
     args = parser.parse_args()
     try:
         check_contact_time_constant(args.contact_time_constant_s)
+        load_model(args.model)  # a missing or broken file fails here, not once per worker
     except Error as exc:
         parser.error(str(exc))
     rng = np.random.default_rng(args.seed)

@@ -63,7 +63,10 @@ def parse_transitions_mm(text: str, lengths: tuple[float, ...]) -> tuple[tuple[f
         ends = item.split("-")
         if len(ends) != 2:
             raise Error(f"transition {item!r} is not two lengths in millimetres joined by '-', e.g. 150-250")
-        a, b = (length_mm_to_m(end) for end in ends)
+        try:
+            a, b = (length_mm_to_m(end) for end in ends)
+        except Error as exc:
+            raise Error(f"transition {item!r}: {exc}") from None
         for end in (a, b):
             if end not in lengths:
                 raise Error(f"transition {item!r}: {end * 1000:g} mm is not one of the training lengths")

@@ -31,7 +31,7 @@ class OCPSettings:
     ds_duration: float = 0.15
     ss_duration: float = 0.80
     # single-support duration search per length, s (0: none).  Off by default: the cost is
-    # flat within 4 % over 0.7-1.1 s, so the search picked 0.7-1.0 s irregularly across
+    # flat within 4 % over 0.6-1.1 s, so the search picked 0.7-1.0 s irregularly across
     # lengths, and the primitives could not interpolate transitions between such gaits
     ss_search_step: float = 0.0
     ss_bounds: tuple[float, float] = (0.5, 1.2)
