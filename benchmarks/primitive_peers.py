@@ -1,6 +1,6 @@
 """Leave-one-length-out comparison of the movement primitives with two peers.
 
-For each step length L of the bundled dataset (150, 250, 300, 350, 400 mm), every step
+For each step length L of the bundled dataset (150, 200, 250, 300, 350 and 400 mm), every step
 that starts or ends at L (cyclic, start and stop steps of L, transitions into and out of
 L, both swing sides) is held out, each method is fitted on the remaining steps, and each
 held-out step is predicted from its spec alone (no conditioning on a previous step).

@@ -12,6 +12,7 @@ import numpy as np
 
 from cocomopl.dataset.plan import DEFAULT_LENGTHS_M
 from cocomopl.errors import Error
+from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_PRIMITIVES
 
 BUNDLED_DATASET = Path(__file__).parent / "data" / "dataset.h5"
 BUNDLED_MODEL = Path(__file__).parent / "data" / "model.npz"
@@ -77,14 +78,17 @@ def cmd_dataset_generate(args) -> int:
     from dataclasses import replace
 
     from cocomopl.dataset.generate import generate
-    from cocomopl.dataset.plan import parse_lengths_mm, parse_transitions_mm
+    from cocomopl.dataset.plan import default_transitions, parse_lengths_mm, parse_transitions_mm
     from cocomopl.ocp.models import OCPSettings
     from cocomopl.ocp.posture import double_support_posture
     from cocomopl.ocp.problems import foot_separation
     from cocomopl.robot import Robot
 
     lengths = parse_lengths_mm(args.lengths_mm)
-    extra = parse_transitions_mm(args.extra_transitions_mm, lengths)
+    if args.extra_transitions_mm is None:
+        extra = default_transitions(lengths)
+    else:
+        extra = parse_transitions_mm(args.extra_transitions_mm, lengths)
     robot = Robot(args.robot)
     for L in lengths:  # a stance the robot cannot take is rejected before any solving
         if L > robot.max_step_length:
@@ -431,9 +435,8 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument(
         "--extra-transitions-mm",
         metavar="A-B,...",
-        default="",
-        help="extra transitions between training lengths that are not neighbours, in millimetres, both ways, "
-        "e.g. 150-250,250-350 (default: none)",
+        help="extra transitions between training lengths that are not neighbours, in millimetres, both ways "
+        "(default: 150-250,250-350, those of them whose lengths are trained; '' for none)",
     )
     gen.add_argument("--robot", default="talos", help="bundled robot name or description .json (default: talos)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", help="output HDF5 file (default: %(default)s)")
@@ -458,10 +461,10 @@ def build_parser() -> argparse.ArgumentParser:
     train = sub.add_parser("train", help="learn movement primitives from a dataset, choosing S and the kernel")
     train.add_argument("data", nargs="?", help="dataset HDF5 (default: the bundled one)")
     train.add_argument("--out", default="cocomopl-model.npz", help="output model file (default: %(default)s)")
-    train.add_argument("--primitives", type=_int_list, default=[7, 9, 11, 13, 15],
-                       help="candidate numbers of primitives S (default: 7,9,11,13,15)")
-    train.add_argument("--kernels", type=_kernel_list, default=["rbf", "matern32", "matern52"],
-                       help="candidate time kernels (default: rbf,matern32,matern52)")
+    train.add_argument("--primitives", type=_int_list, default=list(DEFAULT_PRIMITIVES),
+                       help="candidate numbers of primitives S (default: %s)" % ",".join(map(str, DEFAULT_PRIMITIVES)))
+    train.add_argument("--kernels", type=_kernel_list, default=list(DEFAULT_KERNELS),
+                       help="candidate time kernels (default: %s)" % ",".join(DEFAULT_KERNELS))
     train.add_argument("--max-iterations", type=_positive_int, default=150, help="L-BFGS-B iterations (default: 150)")
     train.add_argument("--workers", type=_positive_int, help="local worker processes (default: one per core)")
     train.add_argument("--json", action="store_true", help="print one JSON object")

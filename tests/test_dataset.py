@@ -11,22 +11,27 @@ import h5py
 import pytest
 
 from cocomopl.cli import main
-from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, parse_transitions_mm, training_specs
+from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, default_transitions, parse_transitions_mm, training_specs
 from cocomopl.errors import Error
 from cocomopl.motion_file import read_motions
 
 from conftest import SMALL, SMALL_LENGTH
 
 
-def test_plan_has_the_papers_23_ocps_and_28_by_default():
+def test_plan_has_the_papers_23_ocps_and_32_by_default():
     specs = training_specs((0.15, 0.25, 0.30, 0.35, 0.40))
     kinds = [s.kind for s in specs]
     assert len(specs) == 23
     assert (kinds.count("start"), kinds.count("cyclic"), kinds.count("transition"), kinds.count("stop")) == (5, 5, 8, 5)
     assert len(training_specs(DEFAULT_LENGTHS_M)) == 28
-    specs = training_specs(DEFAULT_LENGTHS_M, ((0.15, 0.25), (0.25, 0.35)))
+    specs = training_specs(DEFAULT_LENGTHS_M, default_transitions(DEFAULT_LENGTHS_M))
     assert len(specs) == 32
     assert {(s.start_length, s.end_length) for s in specs if s.kind == "transition"} >= {(0.25, 0.35), (0.35, 0.25)}
+
+
+def test_default_transitions_keep_only_trained_lengths():
+    assert default_transitions((0.15, 0.25, 0.30)) == ((0.15, 0.25),)
+    assert default_transitions((0.20, 0.30)) == ()
 
 
 def test_extra_transitions_parse_and_deduplicate():
@@ -117,11 +122,12 @@ def test_dask_cluster_path(tmp_path):
 
 
 def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
-    """The dataset that ships in the package: made by the project's command, all 56 motions,
-    every check passing."""
+    """The dataset that ships in the package: made by the project's command with the default
+    training set (32 OCPs, 64 motions with their mirror images), every check passing."""
     assert main(["dataset", "info", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
-    assert (info["motions"], info["signals"], info["trajectories"]) == (56, 36, 2016)
+    motions = 2 * len(training_specs(DEFAULT_LENGTHS_M, default_transitions(DEFAULT_LENGTHS_M)))
+    assert (info["motions"], info["signals"], info["trajectories"]) == (motions, 36, 36 * motions) == (64, 36, 2304)
     assert info["all_converged"] is True
     assert info["command"].startswith("cocomopl dataset generate")
     assert info["versions"]["crocoddyl"] == "3.2.1" and info["created"]

@@ -2,8 +2,9 @@
 
 The paper's set for lengths ``L1 < ... < Ln``: a start, cyclic and stop step per length
 and transitions between neighbouring lengths in both directions; 5 lengths give 23 OCPs,
-6 give 28.  Extra transitions between lengths further apart can be added (README, "Training
-set", measures M_gen's 150 <-> 250 and 250 <-> 350 mm: 32 OCPs).
+6 give 28.  Extra transitions between lengths further apart can be added; by default the
+two 100 mm changes of the paper's test walk M_gen, 150 <-> 250 and 250 <-> 350 mm, where the
+default lengths include them: 32 OCPs (README, "Training set").
 Cyclic steps come first: every other step starts or ends in a cyclic step's start state.
 """
 
@@ -17,6 +18,9 @@ from cocomopl.motion import StepSpec
 # The paper's lengths, 150, 250, 300, 350 and 400 mm, and 200 mm in their one 100 mm gap: the
 # primitives interpolate badly across it (README, "Training set").
 DEFAULT_LENGTHS_M = (0.15, 0.20, 0.25, 0.30, 0.35, 0.40)
+# M_gen's two 100 mm changes: the paper trained 150 <-> 250 (neighbours on its lengths); with
+# 250 <-> 350 too, M_gen and the random walks stand better (README, "Training set")
+DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
 MAX_LENGTH_M = 0.80  # beyond any human-sized humanoid's stride; the IK rejects earlier
 
 
@@ -74,6 +78,11 @@ def parse_transitions_mm(text: str, lengths: tuple[float, ...]) -> tuple[tuple[f
             raise Error(f"transition {item!r} joins a length to itself (that is a cyclic step)")
         pairs.append((min(a, b), max(a, b)))
     return tuple(sorted(set(pairs)))
+
+
+def default_transitions(lengths: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
+    """The default extra transitions that join two of ``lengths``."""
+    return tuple(pair for pair in DEFAULT_EXTRA_TRANSITIONS_M if set(pair) <= set(lengths))
 
 
 def training_specs(lengths: tuple[float, ...], extra_transitions: tuple[tuple[float, float], ...] = ()) -> list[StepSpec]:

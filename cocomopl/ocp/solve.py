@@ -36,7 +36,7 @@ from cocomopl.ocp.problems import (
 from cocomopl.robot import Robot, mirror_state
 
 CHUNK = 25  # solver iterations between convergence tests
-WALK_ITERATIONS = 60  # the warm-up walk of cyclic_state: its cost has levelled off by then
+WALK_ITERATIONS = 200  # the warm-up walk of cyclic_state: with soft landings its cost levels off later than 60
 
 
 @dataclass

@@ -8,11 +8,10 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
+from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_PRIMITIVES
 from cocomopl.primitives.model import MovementPrimitives
 from cocomopl.primitives.training import TrainingSteps
 
-DEFAULT_PRIMITIVES = (7, 9, 11, 13, 15)
-DEFAULT_KERNELS = ("rbf", "matern32", "matern52")
 
 
 def _fit(steps: TrainingSteps, n_primitives: int, kernel: str, max_iterations: int) -> MovementPrimitives:

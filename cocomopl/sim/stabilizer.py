@@ -43,7 +43,9 @@ from cocomopl.robot import Robot
 
 ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
-ANKLE_DAMPING = 300.0  # N m s/rad: D, how slowly an ankle yields to a torque error
+# N m s/rad: D, how slowly an ankle yields to a torque error.  3000, not 300, since the OCPs
+# land softly: a stiffer ankle keeps the sole flat through the weight transfer
+ANKLE_DAMPING = 3000.0
 ANKLE_LEAK = 0.5  # s: T, how fast the ankle returns to the reference
 FORCE_DAMPING = 1e4  # N s/m: D, how slowly the soles yield to a force-difference error
 FORCE_LEAK = 0.2  # s: T, how fast the soles return to the reference
@@ -86,9 +88,10 @@ def _leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class Stabilizer:
     """Corrections to the commanded joint angles of one rollout (it keeps the ankle state)."""
 
-    def __init__(self, sim, reference: Motion, dcm_gain: float = DCM_GAIN):
+    def __init__(self, sim, reference: Motion, dcm_gain: float = DCM_GAIN, ankle_damping: float = ANKLE_DAMPING):
         self.sim = sim
         self.dcm_gain = dcm_gain
+        self.ankle_damping = ankle_damping
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
@@ -131,7 +134,7 @@ class Stabilizer:
                 moment = self.forces[k, j] * np.array([shift[1], -shift[0]])  # of the sole's CoP moved by shift
                 target = self.tau[k, ankles] + self.moments[k, j, ankles] @ moment
                 torque_error = data.actuator_force[ankles] - target
-                self.ankles[ankles] += self.dt * (-torque_error / ANKLE_DAMPING - self.ankles[ankles] / ANKLE_LEAK)
+                self.ankles[ankles] += self.dt * (-torque_error / self.ankle_damping - self.ankles[ankles] / ANKLE_LEAK)
             else:
                 self.ankles[ankles] -= self.dt * self.ankles[ankles] / SWING_LEAK
         forces = self.sim.sole_wrenches(data)[:, 2]
