@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from cocomopl.analysis.feasibility import check_motion, tolerances
+from cocomopl.analysis.metrics import landing_speeds
 from cocomopl.dataset.continuity import step_mismatch
 from cocomopl.dataset.plan import successors
 from cocomopl.dataset.signals import training_signals
@@ -60,6 +61,16 @@ def test_swing_soles_keep_to_their_lanes(robot, motions):
     for name, m in motions.items():
         y = sole_placements(robot, m.q)[:, :, 1]
         assert np.abs(y - y[0]).max() < 0.02, name
+
+
+def test_soles_land_at_rest(robot, motions):
+    """Every touchdown of every step lands at under 1 cm/s: the impulse model would absorb
+    any landing speed for free, a stiff position-controlled robot does not (README, "Soft
+    landings")."""
+    for name, m in motions.items():
+        speeds = landing_speeds(robot, m)
+        assert len(speeds) >= 1, name
+        assert speeds.max() < 0.01, (name, speeds)
 
 
 def test_mirror_of_mirror_is_identity_and_mirrored_motion_is_dynamic(robot, motions):
