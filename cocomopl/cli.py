@@ -78,17 +78,15 @@ def cmd_dataset_generate(args) -> int:
     from dataclasses import replace
 
     from cocomopl.dataset.generate import generate
-    from cocomopl.dataset.plan import default_transitions, parse_lengths_mm, parse_transitions_mm
+    from cocomopl.dataset.plan import parse_lengths_mm, parse_transitions_mm
     from cocomopl.ocp.models import OCPSettings
     from cocomopl.ocp.posture import double_support_posture
     from cocomopl.ocp.problems import foot_separation
     from cocomopl.robot import Robot
 
     lengths = parse_lengths_mm(args.lengths_mm)
-    if args.extra_transitions_mm is None:
-        extra = default_transitions(lengths)
-    else:
-        extra = parse_transitions_mm(args.extra_transitions_mm, lengths)
+    # None: generate() takes the default extra transitions of these lengths
+    extra = None if args.extra_transitions_mm is None else parse_transitions_mm(args.extra_transitions_mm, lengths)
     robot = Robot(args.robot)
     for L in lengths:  # a stance the robot cannot take is rejected before any solving
         if L > robot.max_step_length:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cocomopl.dataset.plan import successors, training_specs
+from cocomopl.dataset.plan import default_transitions, successors, training_specs
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
@@ -132,7 +132,7 @@ class _Executor:
 def generate(
     output: str | Path,
     lengths: tuple[float, ...],
-    extra_transitions: tuple[tuple[float, float], ...] = (),
+    extra_transitions: tuple[tuple[float, float], ...] | None = None,
     robot_name: str = "talos",
     settings: OCPSettings | None = None,
     workers: int | None = None,
@@ -140,14 +140,16 @@ def generate(
     command: str = "",
     progress: bool = True,
 ) -> dict:
-    """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them)
-    and write the dataset to ``output``.
+    """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them;
+    None: :func:`~cocomopl.dataset.plan.default_transitions`) and write the dataset to ``output``.
 
     Returns a summary: solved, reused, failed steps and timings.
     """
     from tqdm import tqdm
 
     settings = settings or OCPSettings()
+    if extra_transitions is None:
+        extra_transitions = default_transitions(lengths)
     robot = Robot(robot_name)  # fail fast on a bad robot before any process starts
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
