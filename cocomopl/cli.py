@@ -379,11 +379,11 @@ def cmd_reproduce(args) -> int:
     lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
     lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
-    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force variation/W':>18s} {'ZMP RMS (m)':>12s}")
+    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force variation/W':>18s} {'(planned)':>10s} {'ZMP RMS (m)':>12s}")
     for name, m in payload["metrics"].items():
         zmp = "-" if m["zmp_rms_error"] is None else f"{m['zmp_rms_error']:.4f}"
         lines.append(f"{name:12s} {m['fell']!s:>5s} {m['peak_force_over_weight']:9.2f} "
-                     f"{m['force_variation_over_weight']:18.1f} {zmp:>12s}")
+                     f"{m['force_variation_over_weight']:18.1f} {payload['planned_force_variation_over_weight'][name]:10.1f} {zmp:>12s}")
     lines.append(f"MP contact forces smoother than Kajita's: {payload['mp_smoother_than_kajita']}")
     lines.append(f"M_opt solved in {payload['m_opt_solve_s']:.0f} s; report in {args.out}/ ({payload['wall_time_s']:.0f} s)")
     _emit(args, payload, "\n".join(lines))

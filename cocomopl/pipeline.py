@@ -175,7 +175,8 @@ def reproduce_report(
 
     import numpy as np
 
-    from cocomopl.analysis.metrics import mean_torque
+    from cocomopl.analysis.metrics import force_variation, mean_torque, total_force_variation
+    from cocomopl.dynamics import GRAVITY
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.baselines.kajita import kajita_walk
     from cocomopl.motion_file import writable_folder, write_json, write_motions
@@ -217,6 +218,13 @@ def reproduce_report(
         "mp_vs_oc_simulated_mean_torque_difference": table["MP simulated"] / table["OC simulated"] - 1,
         # total variation of the contact forces: not diluted by the standing before and after
         "mp_smoother_than_kajita": metrics["MP"]["force_variation_over_weight"] < metrics["Kajita"]["force_variation_over_weight"],
+        # the same measures on the plans: how much of the simulated roughness each plan asks for
+        "planned_force_variation_over_weight": {
+            name: float(force_variation(m).max() / (robot.mass * GRAVITY)) for name, m in planned.items()
+        },
+        "planned_total_force_variation_over_weight": {
+            name: total_force_variation(m) / (robot.mass * GRAVITY) for name, m in planned.items()
+        },
         "metrics": metrics,
         "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
         "m_opt_solve_s": solve_s,

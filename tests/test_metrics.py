@@ -176,6 +176,19 @@ def test_force_variation_of_loading_and_unloading_a_foot_twice(robot):
     assert metrics.force_rate_rms(padded, None)[0] == pytest.approx(metrics.force_rate_rms(motion, None)[0] * dilution)
 
 
+def test_passing_the_weight_between_feet_moves_each_foot_but_not_their_sum(robot):
+    # the weight W goes from the left sole to the right and back, then the body bounces:
+    # the sum rises to 1.1 W and returns, 0.2 W of variation, while each sole varies by 2 W
+    weight = robot.mass * metrics.GRAVITY
+    t = np.arange(0.0, 3.0, 0.005)
+    left = weight * np.interp(t, [0.5, 1.0, 1.5, 2.0], [1, 0, 0, 1])
+    bounce = weight * np.interp(t, [2.2, 2.4, 2.5, 2.7], [0, 0.1, 0.1, 0])  # plateau wider than the average
+    motion = synthetic(robot, t, fz=np.column_stack([left + bounce, weight - left]))
+    np.testing.assert_allclose(metrics.force_variation(motion, None), [2.2 * weight, 2 * weight], rtol=1e-9)
+    assert metrics.total_force_variation(motion, None) == pytest.approx(0.2 * weight, rel=1e-9)
+    assert metrics.total_force_variation(motion) == pytest.approx(0.2 * weight, rel=1e-9)
+
+
 def test_smoothing_bounds_the_rate_of_a_jump_on_any_sample_spacing(robot):
     # a 600 N jump between two samples 1 µs apart: raw rate 6e8 N/s, smoothed at most 600 N / w
     t = np.sort(np.concatenate([np.arange(0.0, 0.4, 0.005), [0.2 + 1e-6]]))
@@ -293,6 +306,7 @@ def test_summary_of_an_oc_step_against_itself_is_json_and_exact(robot, oc_step):
         "knee_torque_peak",
         "force_rate_rms",
         "force_variation_over_weight",
+        "total_force_variation_over_weight",
     ):
         assert key in report
     assert report["fell"] is False

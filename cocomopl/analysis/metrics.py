@@ -182,6 +182,17 @@ def force_variation(motion: Motion, window: float | None = FORCE_FILTER_S) -> np
     return np.sum(np.abs(rates) * np.diff(motion.t[motion.kept_samples()])[:, None], axis=0)
 
 
+def total_force_variation(motion: Motion, window: float | None = FORCE_FILTER_S) -> float:
+    """Total variation ``∫ |d(F_z,left + F_z,right)/dt| dt`` of the two soles' summed vertical force, N.
+
+    The summed force is ``m (g + z̈_CoM)``: this measures how much the motion accelerates
+    the centre of mass up and down, whereas :func:`force_variation` also counts the weight
+    passing from one foot to the other.
+    """
+    rates = force_rates(motion, window).sum(axis=1)
+    return float(np.sum(np.abs(rates) * np.diff(motion.t[motion.kept_samples()])))
+
+
 def _aligned(measured: Motion, reference: Motion, values: str, columns: slice) -> tuple[np.ndarray, np.ndarray]:
     """Rows of ``values`` of ``measured`` and of ``reference`` at the measured times, both
     timed from their first samples; only times inside the reference's span."""
@@ -319,7 +330,8 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     dict with ``fell``, ``duration_s``, ``mean_torque`` (N m s^-½), ``rms_torque`` (N m),
     ``peak_force_over_weight``, ``max_force_rate`` and ``max_force_rate_raw`` (N/s),
     ``force_rate_rms`` (N/s), ``force_variation_over_weight`` (:func:`force_variation` over
-    the body weight), ``knee_torque_peak`` (N m), ``foot_slip_m``,
+    the body weight), ``total_force_variation_over_weight`` (:func:`total_force_variation`
+    over the body weight), ``knee_torque_peak`` (N m), ``foot_slip_m``,
     ``end_balance_margin_m``, ``max_landing_speed`` (m/s, :func:`landing_speeds`), and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
     ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
     """
@@ -334,6 +346,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
         "max_force_rate_raw": float(max_force_rate(measured, None).max()),
         "force_rate_rms": float(force_rate_rms(measured).max()),
         "force_variation_over_weight": float(force_variation(measured).max() / (robot.mass * GRAVITY)),
+        "total_force_variation_over_weight": total_force_variation(measured) / (robot.mass * GRAVITY),
         "knee_torque_peak": float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
         "foot_slip_m": foot_slip(robot, measured),
         "end_balance_margin_m": _finite_or_none(end_balance_margin(robot, measured)),
