@@ -87,3 +87,24 @@ def test_foreign_motion_file_and_unwritable_folder(tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("")
     assert_one_line_error(run_cli("walk", "--lengths-mm", "250,250", "--out", str(blocker / "report")), "cannot")
+
+
+def test_reproduce_gives_table_one_and_its_figures(tmp_path):
+    out = tmp_path / "repro"
+    result = run_cli("reproduce", "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    payload = json.loads(result.stdout)
+    assert payload == json.loads((out / "table1.json").read_text())
+    table = payload["table1_mean_torque"]
+    for method in ("OC", "MP", "Kajita"):
+        assert table[f"{method} simulated"] == payload["metrics"][method]["mean_torque"] > 0
+        assert not payload["metrics"][method]["fell"]  # the bundled M_gen, M_opt and Kajita walks stand
+        per_sole = payload["planned_force_variation_over_weight"][method]
+        # |d(F_left + F_right)| <= |dF_left| + |dF_right|: the sum varies at most twice the larger sole
+        assert 0 < payload["planned_total_force_variation_over_weight"][method] <= 2 * per_sole
+    assert payload["mp_vs_oc_simulated_mean_torque_difference"] == pytest.approx(table["MP simulated"] / table["OC simulated"] - 1)
+    mp, kajita = (payload["metrics"][m]["force_variation_over_weight"] for m in ("MP", "Kajita"))
+    assert payload["mp_smoother_than_kajita"] == (mp < kajita)
+    with h5py.File(out / "motions.h5") as f:
+        assert set(f["motions"]) == {f"{m}_{kind}" for m in ("MP", "OC", "Kajita") for kind in ("planned", "simulated")}
+    assert {"zmp_comparison.png", "force_comparison.png", "knee_torque_comparison.png"} <= {p.name for p in out.iterdir()}
