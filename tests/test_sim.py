@@ -167,3 +167,29 @@ def test_dcm_feedback_resists_a_push(robot, sim):
     with_feedback = _push_excursion(robot, sim, reference, 2.0, 150.0, ankle_damping=300.0)
     assert 0.005 < without  # the push moves the robot
     assert with_feedback < 0.85 * without
+
+
+def test_reference_filter_keeps_the_gait_and_removes_the_knot_rate(robot):
+    from test_metrics import synthetic
+
+    from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, _reference_joints
+
+    # 25 ms knots of a 1 Hz swing with a 40 Hz zigzag on top, standing still at both ends
+    t = np.arange(0.0, 4.0 + 1e-9, 0.025)
+    moving = (t > 1.0) & (t < 3.0)
+    slow = np.where(moving, 0.3 * np.sin(2 * np.pi * (t - 1.0)), 0.0)
+    zigzag = np.where(moving, 0.01 * (-1.0) ** np.arange(len(t)), 0.0)
+    q = np.tile(robot.q_ref, (len(t), 1))
+    q[:, 7] += slow + zigzag
+    motion = synthetic(robot, t, q=q)
+    dt = 0.001
+    plain, filtered = _reference_joints(motion, dt, None), _reference_joints(motion, dt, REFERENCE_CUTOFF_HZ)
+    grid = np.arange(0.0, 4.0, dt)
+    a, b = (np.array([f(x)[0] for x in grid]) - robot.q_ref[7] for f in (plain, filtered))
+    np.testing.assert_allclose(a[::25], (slow + zigzag)[:-1], atol=1e-12)  # unfiltered: the knots
+    # standing postures are kept, the 1 Hz swing passes, the zigzag (20 Hz, the knots' Nyquist rate) goes
+    assert abs(b[0]) < 1e-6 and abs(b[-1]) < 1e-6
+    swing = np.sin(2 * np.pi * (grid - 1.0)) * ((grid > 1.0) & (grid < 3.0))
+    assert np.abs(b - 0.3 * swing)[(grid > 1.2) & (grid < 2.8)].max() < 0.003
+    residual = a - 0.3 * swing
+    assert np.abs(b - 0.3 * swing)[(grid > 1.2) & (grid < 2.8)].max() < 0.3 * np.abs(residual).max()

@@ -1,7 +1,12 @@
 """Run a motion in MuJoCo as a position-controlled robot would, and measure what happens.
 
-The reference joint angles go, interpolated to the 1 kHz loop, to the joint position
-servos; the stabilizer (:mod:`cocomopl.sim.stabilizer`) may add small corrections.  The
+The reference joint angles go, interpolated to the 1 kHz loop and low-passed, to the joint
+position servos; the stabilizer (:mod:`cocomopl.sim.stabilizer`) may add small corrections.
+The plans are sampled every 25 ms and interpolated linearly: their kinks carry content up
+to and beyond the 20 Hz Nyquist rate of those knots, which no servo should be asked to
+follow.  A zero-phase low-pass (second-order Butterworth, run forwards and backwards over
+the whole reference, which is known before it is played) keeps the gait, whose content
+lies below 5 Hz, and removes that.  The
 robot first stands for ``settle`` seconds in the motion's first posture, as a real robot
 does before it is told to walk.  What comes out is a :class:`Motion` of the same schema:
 measured configurations, velocities, servo torques, contact wrenches of each sole (summed
@@ -15,6 +20,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy.signal import butter, sosfiltfilt
 from tqdm import tqdm
 
 from cocomopl.dynamics import SIDES, zmp_from_wrenches
@@ -27,6 +33,10 @@ RECORD_DT = 0.005  # s between recorded samples
 SETTLE_S = 0.5  # s standing before the motion starts
 HOLD_S = 1.0  # s standing in the last posture after it ends: a walk must also come to rest
 CONTACT_FORCE = 1.0  # N: a sole with less than this is in the air
+# Hz: cut-off of the reference's low-pass, below the 20 Hz Nyquist rate of 25 ms plans.
+# Measured on 20 random walks of seeds 0 and 1 with the stabilizer, the median peak force
+# went from 1.51 and 1.45 to 1.36 and 1.37 x weight; README "Stage 3" has the rest.
+REFERENCE_CUTOFF_HZ = 15.0
 
 
 @dataclass
@@ -39,15 +49,20 @@ class Rollout:
     fall_time: float | None
 
 
-def _reference_joints(motion: Motion):
-    """Joint angles of ``motion`` at any time (linear between its knots, held at the ends)."""
+def _reference_joints(motion: Motion, dt: float, cutoff: float | None = REFERENCE_CUTOFF_HZ):
+    """Joint angles of ``motion`` at any time: linear between its knots, sampled every ``dt``,
+    low-passed at ``cutoff`` Hz (None: not filtered), held at the ends."""
     keep = motion.kept_samples()
     t, q = motion.t[keep], motion.q[keep, 7:]
+    grid = np.arange(t[0], t[-1] + dt / 2, dt)
+    samples = np.column_stack([np.interp(grid, t, q[:, j]) for j in range(q.shape[1])])
+    if cutoff is not None:
+        # the robot stands still before and after: extend the ends with constant postures
+        sos = butter(2, cutoff, fs=1.0 / dt, output="sos")
+        samples = sosfiltfilt(sos, samples, axis=0, padtype="constant", padlen=min(len(grid) - 1, int(1.0 / dt)))
 
     def at(time: float) -> np.ndarray:
-        k = int(np.clip(np.searchsorted(t, time, side="right") - 1, 0, len(t) - 2))
-        s = np.clip((time - t[k]) / (t[k + 1] - t[k]), 0.0, 1.0)
-        return (1 - s) * q[k] + s * q[k + 1]
+        return samples[int(np.clip(round((time - t[0]) / dt), 0, len(grid) - 1))]
 
     return at
 
@@ -75,6 +90,7 @@ def simulate(
     hold: float = HOLD_S,
     record_dt: float = RECORD_DT,
     progress: bool = False,
+    reference_cutoff_hz: float | None = REFERENCE_CUTOFF_HZ,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -87,6 +103,8 @@ def simulate(
     hold : seconds the last posture is held after the motion ends (recorded: a robot that
         topples right after the last step has fallen)
     record_dt : seconds between recorded samples
+    reference_cutoff_hz : cut-off (Hz) of the zero-phase low-pass of the reference joints;
+        None plays the linear interpolation of the knots as it is
 
     Returns
     -------
@@ -94,7 +112,7 @@ def simulate(
     """
     model = sim.mj
     data = mujoco.MjData(model)
-    reference = _reference_joints(motion)
+    reference = _reference_joints(motion, model.opt.timestep, reference_cutoff_hz)
     t0 = float(motion.t[0])
     _placed_on_floor(sim, data, motion.q[0])
     control = Stabilizer(sim, motion) if stabilizer else None
@@ -121,7 +139,9 @@ def simulate(
             fell, fall_time = True, max(time - t0, 0.0)
             break
         mujoco.mj_step(model, data)
-    return Rollout(_measured_motion(sim, motion, rows, stabilizer, fell, fall_time), np.array(rows["qpos"]), fell, fall_time)
+    measured = _measured_motion(sim, motion, rows, stabilizer, fell, fall_time)
+    measured.meta["reference_cutoff_hz"] = reference_cutoff_hz
+    return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
 def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: bool, fell: bool, fall_time) -> Motion:
