@@ -10,7 +10,7 @@ simulated with the stabilizer on, and with it off.  Goal (issue #4): at least 95
 without falling.
 
     python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2]
-        [--contact-time-constant-s 0.01] [--model MODEL] [--json]
+        [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
 """
 
 from __future__ import annotations
@@ -29,9 +29,10 @@ from cocomopl.cli import BUNDLED_MODEL
 from cocomopl.errors import Error
 from cocomopl.primitives.model_file import load_model
 from cocomopl.sim.model import CONTACT_TIME_CONSTANT, check_contact_time_constant
+from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 
-def run_one(lengths_mm: list[float], contact_time_constant: float, model: str) -> dict:
+def run_one(lengths_mm: list[float], contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
     from cocomopl.pipeline import generate_walk
     from cocomopl.sim.model import build_sim_model
     from cocomopl.sim.rollout import simulate
@@ -40,7 +41,7 @@ def run_one(lengths_mm: list[float], contact_time_constant: float, model: str) -
     sim = build_sim_model(walk.robot, visuals=False, contact_time_constant=contact_time_constant)
     out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration}
     for name, stabilizer in (("stabilizer", True), ("no_stabilizer", False)):
-        rollout = simulate(sim, walk.motion, stabilizer=stabilizer)
+        rollout = simulate(sim, walk.motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz)
         weight = walk.robot.mass * 9.81
         out[name] = {
             "fell": rollout.fell,
@@ -68,11 +69,14 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--contact-time-constant-s", type=float, default=CONTACT_TIME_CONSTANT,
                         help="sole-floor contact softness in s (default: %(default)s)")
+    parser.add_argument("--reference-cutoff-hz", type=float, default=REFERENCE_CUTOFF_HZ,
+                        help="low-pass of the reference joints in Hz, 0 for none (default: %(default)s)")
     parser.add_argument("--model", default=str(BUNDLED_MODEL), help="primitives model file (default: the bundled one)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     try:
         check_contact_time_constant(args.contact_time_constant_s)
+        check_reference_cutoff(args.reference_cutoff_hz)
         load_model(args.model)  # a missing or broken file fails here, not once per worker
     except Error as exc:
         parser.error(str(exc))
@@ -80,9 +84,11 @@ def main() -> int:
     sequences = [random_lengths(rng, args.max_change_mm) for _ in range(args.n)]
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
-        results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s, model=args.model), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
+        results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s, model=args.model,
+                                                    reference_cutoff_hz=args.reference_cutoff_hz), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
     summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
-               "contact_time_constant_s": args.contact_time_constant_s, "wall_time_s": time.perf_counter() - started}
+               "contact_time_constant_s": args.contact_time_constant_s, "reference_cutoff_hz": args.reference_cutoff_hz,
+               "wall_time_s": time.perf_counter() - started}
     for name in ("stabilizer", "no_stabilizer"):
         walked = [not r[name]["fell"] for r in results]
         summary[name] = {

@@ -55,6 +55,20 @@ def _contact_time_constant(text: str) -> float:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _reference_cutoff(text: str) -> float:
+    from cocomopl.sim.rollout import check_reference_cutoff
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    try:
+        return check_reference_cutoff(value)
+    except Error as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+CUTOFF_HELP = "cut-off in Hz of the low-pass of the reference joints (default: 15; 0 plays the plan's knots interpolated linearly)"
 CONTACT_HELP = "sole-floor contact softness, a time constant in s (default: 0.01, rubber soles; 0.005 is stiffer)"
 
 
@@ -345,10 +359,12 @@ def cmd_simulate(args) -> int:
     out = _output_file(args.out, Path(f"{Path(args.file).stem}-sim.h5"))
     robot = Robot(reference.robot)
     rollout, metrics = simulate_walk(robot, reference, stabilizer=not args.no_stabilizer, progress=not args.json,
-                                     contact_time_constant=args.contact_time_constant_s)
+                                     contact_time_constant=args.contact_time_constant_s,
+                                     reference_cutoff_hz=args.reference_cutoff_hz)
     write_motions(out, {"measured": rollout.measured}, {"robot": robot.name, "producer": "mujoco"})
     payload = {"output": str(out), "stabilizer": not args.no_stabilizer,
-               "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"], **metrics}
+               "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
+               "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
     _emit(args, payload, _metrics_table(metrics) + f"\nwrote {out}")
     return 1 if rollout.fell else 0
 
@@ -360,7 +376,8 @@ def cmd_walk(args) -> int:
     lengths = parse_sequence_mm(args.lengths_mm)
     payload = walk_report(lengths, Path(args.out), _model_path(args.model), stabilizer=not args.no_stabilizer,
                           video=not args.no_video, progress=not args.json,
-                          contact_time_constant=args.contact_time_constant_s)
+                          contact_time_constant=args.contact_time_constant_s,
+                          reference_cutoff_hz=args.reference_cutoff_hz)
     for message in payload["warnings"]:
         print(f"cocomopl: warning: {message}", file=sys.stderr)
     lines = [f"walk {args.lengths_mm} mm: {len(payload['steps'])} steps, generated in "
@@ -375,7 +392,8 @@ def cmd_reproduce(args) -> int:
     from cocomopl.pipeline import reproduce_report
 
     payload = reproduce_report(Path(args.out), _model_path(args.model), _dataset_path(args.data), progress=not args.json,
-                               contact_time_constant=args.contact_time_constant_s)
+                               contact_time_constant=args.contact_time_constant_s,
+                               reference_cutoff_hz=args.reference_cutoff_hz)
     lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
     lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
@@ -497,6 +515,7 @@ def build_parser() -> argparse.ArgumentParser:
     walk.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
     walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
     walk.add_argument("--contact-time-constant-s", type=_contact_time_constant, help=CONTACT_HELP)
+    walk.add_argument("--reference-cutoff-hz", type=_reference_cutoff, help=CUTOFF_HELP)
     walk.add_argument("--json", action="store_true", help="print one JSON object")
     walk.set_defaults(func=cmd_walk)
 
@@ -505,6 +524,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--model", help="model file (default: the bundled one)")
     reproduce.add_argument("--data", help="OC dataset for M_opt's steps and gait states (default: the bundled one)")
     reproduce.add_argument("--contact-time-constant-s", type=_contact_time_constant, help=CONTACT_HELP)
+    reproduce.add_argument("--reference-cutoff-hz", type=_reference_cutoff, help=CUTOFF_HELP)
     reproduce.add_argument("--json", action="store_true", help="print one JSON object")
     reproduce.set_defaults(func=cmd_reproduce)
 
@@ -514,6 +534,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--out", help="measured motion HDF5 (default: <file>-sim.h5)")
     simulate.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
     simulate.add_argument("--contact-time-constant-s", type=_contact_time_constant, help=CONTACT_HELP)
+    simulate.add_argument("--reference-cutoff-hz", type=_reference_cutoff, help=CUTOFF_HELP)
     simulate.add_argument("--json", action="store_true", help="print one JSON object")
     simulate.set_defaults(func=cmd_simulate)
 

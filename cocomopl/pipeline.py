@@ -82,9 +82,11 @@ def simulate_walk(
     video: Path | None = None,
     progress: bool = False,
     contact_time_constant: float | None = None,
+    reference_cutoff_hz: float | None = None,
 ):
     """Simulate ``motion`` in MuJoCo; with ``video``, also render it there (MP4).
-    ``contact_time_constant`` (s) sets the sole-floor softness (default: the model's).
+    ``contact_time_constant`` (s) sets the sole-floor softness (default: the model's),
+    ``reference_cutoff_hz`` the reference's low-pass (default: the rollout's; 0: none).
 
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
     """
@@ -94,7 +96,8 @@ def simulate_walk(
     from cocomopl.sim.video import render_video
 
     sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
-    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress)
+    options = {} if reference_cutoff_hz is None else {"reference_cutoff_hz": reference_cutoff_hz}
+    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, **options)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout, summary(robot, rollout.measured, motion)
@@ -108,6 +111,7 @@ def walk_report(
     video: bool = True,
     progress: bool = False,
     contact_time_constant: float | None = None,
+    reference_cutoff_hz: float | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -125,7 +129,8 @@ def walk_report(
     out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")
     walk = generate_walk(lengths, model_path)
     rollout, metrics = simulate_walk(
-        walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress, contact_time_constant
+        walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress, contact_time_constant,
+        reference_cutoff_hz,
     )
     motions = {"generated": walk.motion, "simulated": rollout.measured}
     files = [out_dir / "motions.h5"]
@@ -140,6 +145,7 @@ def walk_report(
         "steps": [s.spec.name for s in walk.steps],
         "stabilizer": stabilizer,
         "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
+        "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
         **metrics,
         "generation_s": walk.generation_s,
         "placement_s": walk.placement_s,
@@ -162,6 +168,7 @@ def reproduce_report(
     dataset_path: str | Path,
     progress: bool = False,
     contact_time_constant: float | None = None,
+    reference_cutoff_hz: float | None = None,
 ) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_opt from chained OCPs
     (the steps of the dataset at ``dataset_path``, and the transitions it lacks solved here)
@@ -198,7 +205,8 @@ def reproduce_report(
     simulated, metrics = {}, {}
     for name, motion in planned.items():
         rollout, metrics[name] = simulate_walk(
-            robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant
+            robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant,
+            reference_cutoff_hz=reference_cutoff_hz,
         )
         simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
     table = {
@@ -227,6 +235,7 @@ def reproduce_report(
         },
         "metrics": metrics,
         "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
+        "reference_cutoff_hz": simulated["MP"].meta["reference_cutoff_hz"],
         "m_opt_solve_s": solve_s,
         "m_opt_solver": m_opt.meta.get("solver"),
         "generation_s": walk.generation_s,

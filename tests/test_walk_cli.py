@@ -6,6 +6,7 @@ import h5py
 import pytest
 
 from cocomopl.motion_file import read_motion
+from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ
 
 from test_cli_errors import assert_one_line_error, run_cli
 
@@ -24,6 +25,7 @@ def test_walk_writes_its_report_and_one_json_object(walk_report):
     for key in ("fell", "peak_force_over_weight", "max_force_rate", "mean_torque", "zmp_rms_error", "duration_s"):
         assert key in payload
     assert payload["steps"] == ["start_250_L", "stop_250_R"]
+    assert payload["reference_cutoff_hz"] == REFERENCE_CUTOFF_HZ  # the reference is low-passed by default
     assert (result.returncode == 1) == payload["fell"]
     names = {p.name for p in out.iterdir()}
     assert {"motions.h5", "metrics.json", "walk.html", "zmp_comparison.png", "force_comparison.png",
@@ -54,9 +56,10 @@ def test_simulate_a_motion_file(walk_report, tmp_path):
     assert run_cli("generate", "--lengths-mm", "250,250", "--out", str(source)).returncode == 0
     measured = tmp_path / "measured.h5"
     result = run_cli("simulate", str(source), "--no-stabilizer", "--contact-time-constant-s", "0.02",
-                     "--out", str(measured), "--json")
+                     "--reference-cutoff-hz", "0", "--out", str(measured), "--json")
     payload = json.loads(result.stdout)
     assert payload["stabilizer"] is False and measured.exists()
+    assert payload["reference_cutoff_hz"] == 0.0 == read_motion(measured).meta["reference_cutoff_hz"]
     assert payload["contact_time_constant_s"] == 0.02 == read_motion(measured).meta["contact_time_constant_s"]
     assert (result.returncode == 1) == payload["fell"]
 
@@ -70,6 +73,8 @@ def test_simulate_a_motion_file(walk_report, tmp_path):
         (("simulate", "missing.h5"), ["not found"]),
         (("walk", "--contact-time-constant-s", "0.001"), ["contact time constant", "0.002"]),
         (("simulate", "missing.h5", "--contact-time-constant-s", "nan"), ["positive finite"]),
+        (("walk", "--reference-cutoff-hz", "600"), ["reference cut-off 600 Hz", "500 Hz"]),
+        (("simulate", "missing.h5", "--reference-cutoff-hz", "-1"), ["reference cut-off -1 Hz"]),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, words):

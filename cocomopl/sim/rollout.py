@@ -24,6 +24,7 @@ from scipy.signal import butter, sosfiltfilt
 from tqdm import tqdm
 
 from cocomopl.dynamics import SIDES, zmp_from_wrenches
+from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
 from cocomopl.sim.model import SimModel
@@ -49,14 +50,24 @@ class Rollout:
     fall_time: float | None
 
 
+def check_reference_cutoff(value: float) -> float:
+    """``value`` (Hz) if it is a usable cut-off for the reference low-pass (0: none), else
+    :class:`Error`: it must lie below the Nyquist rate of the 1 kHz control loop."""
+    from cocomopl.sim.model import TIMESTEP
+
+    if not 0 <= value < 0.5 / TIMESTEP:
+        raise Error(f"reference cut-off {value:g} Hz is outside 0 (no filter) to {0.5 / TIMESTEP:g} Hz")
+    return value
+
+
 def _reference_joints(motion: Motion, dt: float, cutoff: float | None = REFERENCE_CUTOFF_HZ):
     """Joint angles of ``motion`` at any time: linear between its knots, sampled every ``dt``,
-    low-passed at ``cutoff`` Hz (None: not filtered), held at the ends."""
+    low-passed at ``cutoff`` Hz (0 or None: not filtered), held at the ends."""
     keep = motion.kept_samples()
     t, q = motion.t[keep], motion.q[keep, 7:]
     grid = np.arange(t[0], t[-1] + dt / 2, dt)
     samples = np.column_stack([np.interp(grid, t, q[:, j]) for j in range(q.shape[1])])
-    if cutoff is not None:
+    if cutoff:
         # the robot stands still before and after: extend the ends with constant postures
         sos = butter(2, cutoff, fs=1.0 / dt, output="sos")
         samples = sosfiltfilt(sos, samples, axis=0, padtype="constant", padlen=min(len(grid) - 1, int(1.0 / dt)))
@@ -104,7 +115,7 @@ def simulate(
         topples right after the last step has fallen)
     record_dt : seconds between recorded samples
     reference_cutoff_hz : cut-off (Hz) of the zero-phase low-pass of the reference joints;
-        None plays the linear interpolation of the knots as it is
+        0 or None plays the linear interpolation of the knots as it is
 
     Returns
     -------
