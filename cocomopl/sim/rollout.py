@@ -27,7 +27,7 @@ from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
-from cocomopl.sim.model import SimModel
+from cocomopl.sim.model import TIMESTEP, SimModel
 from cocomopl.sim.stabilizer import Stabilizer
 
 RECORD_DT = 0.005  # s between recorded samples
@@ -53,16 +53,14 @@ class Rollout:
 def check_reference_cutoff(value: float) -> float:
     """``value`` (Hz) if it is a usable cut-off for the reference low-pass (0: none), else
     :class:`Error`: it must lie below the Nyquist rate of the 1 kHz control loop."""
-    from cocomopl.sim.model import TIMESTEP
-
     if not 0 <= value < 0.5 / TIMESTEP:
         raise Error(f"reference cut-off {value:g} Hz is outside 0 (no filter) to {0.5 / TIMESTEP:g} Hz")
     return value
 
 
-def _reference_joints(motion: Motion, dt: float, cutoff: float | None = REFERENCE_CUTOFF_HZ):
+def _reference_joints(motion: Motion, dt: float, cutoff: float):
     """Joint angles of ``motion`` at any time: linear between its knots, sampled every ``dt``,
-    low-passed at ``cutoff`` Hz (0 or None: not filtered), held at the ends."""
+    low-passed at ``cutoff`` Hz (0: not filtered), held at the ends."""
     keep = motion.kept_samples()
     t, q = motion.t[keep], motion.q[keep, 7:]
     grid = np.arange(t[0], t[-1] + dt / 2, dt)
@@ -101,7 +99,7 @@ def simulate(
     hold: float = HOLD_S,
     record_dt: float = RECORD_DT,
     progress: bool = False,
-    reference_cutoff_hz: float | None = REFERENCE_CUTOFF_HZ,
+    reference_cutoff_hz: float = REFERENCE_CUTOFF_HZ,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -115,12 +113,13 @@ def simulate(
         topples right after the last step has fallen)
     record_dt : seconds between recorded samples
     reference_cutoff_hz : cut-off (Hz) of the zero-phase low-pass of the reference joints;
-        0 or None plays the linear interpolation of the knots as it is
+        0 plays the linear interpolation of the knots as it is (:func:`check_reference_cutoff`)
 
     Returns
     -------
     Rollout with the measured :class:`Motion` (time 0 = the reference's first sample)
     """
+    check_reference_cutoff(reference_cutoff_hz)
     model = sim.mj
     data = mujoco.MjData(model)
     reference = _reference_joints(motion, model.opt.timestep, reference_cutoff_hz)
@@ -150,12 +149,12 @@ def simulate(
             fell, fall_time = True, max(time - t0, 0.0)
             break
         mujoco.mj_step(model, data)
-    measured = _measured_motion(sim, motion, rows, stabilizer, fell, fall_time)
-    measured.meta["reference_cutoff_hz"] = reference_cutoff_hz
+    measured = _measured_motion(sim, motion, rows, stabilizer, reference_cutoff_hz, fell, fall_time)
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
-def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: bool, fell: bool, fall_time) -> Motion:
+def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: bool, reference_cutoff_hz: float,
+                     fell: bool, fall_time) -> Motion:
     t = np.array(rows["t"])
     q = np.array(rows["q"])
     wrenches = np.array(rows["wrenches"])
@@ -185,6 +184,7 @@ def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: b
             "producer": "mujoco",
             "reference_producer": reference.meta.get("producer", "unknown"),
             "stabilizer": stabilizer,
+            "reference_cutoff_hz": reference_cutoff_hz,
             "fell": fell,
             "fall_time_s": fall_time,
             "timestep_s": float(sim.mj.opt.timestep),
