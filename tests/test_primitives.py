@@ -16,7 +16,7 @@ import cocomopl
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.model import MovementPrimitives
-from cocomopl.primitives.training import load_training_steps, phase_templates, resample, step_type
+from cocomopl.primitives.training import load_training_steps, phase_templates, resample, split_phases, step_type
 from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
 
 DATASET = Path(cocomopl.__file__).parent / "data" / "dataset.h5"
@@ -52,6 +52,28 @@ def test_time_normalisation_aligns_phase_boundaries(steps):
     X = resample(steps.subset([0]), templates, np.linspace(0, 1, 7))
     np.testing.assert_allclose(X[0, :, 0], steps.values[0][0])
     np.testing.assert_allclose(X[0, :, -1], steps.values[0][-1])
+
+
+def test_cutting_stops_at_their_middle_touchdown_keeps_every_sample(steps):
+    parts, types = split_phases(steps, "stop", 2)
+    stops = [k for k, s in enumerate(steps.specs) if s.kind == "stop"]
+    assert len(parts) == len(steps) + len(stops) and len(types) == len(parts)
+    first = [k for k, t in enumerate(types) if t.endswith("_part1")]
+    assert len(first) == len(stops)
+    for k, j in zip(stops, first):
+        assert types[j + 1] == types[j].replace("_part1", "_part2")
+        # the parts meet at the touchdown sample and together are the step, phases and all
+        assert parts.phase_time[j][-1] == 2 and parts.phase_time[j + 1][0] == 0
+        np.testing.assert_array_equal(np.vstack([parts.values[j], parts.values[j + 1][1:]]), steps.values[k])
+        np.testing.assert_array_equal(np.concatenate([parts.durations[j], parts.durations[j + 1]]), steps.durations[k])
+    templates = phase_templates(parts, types)
+    assert len(templates[types[first[0]]]) == 3 and len(templates[types[first[0] + 1]]) == 4
+    X = resample(parts, templates, np.linspace(0, 1, 5), types)
+    np.testing.assert_array_equal(X[first[0], :, -1], X[first[0] + 1, :, 0])
+    with pytest.raises(Error, match="cannot cut it at phase 5"):
+        split_phases(steps, "stop", 5)
+    with pytest.raises(Error, match="3 step types given"):
+        phase_templates(steps, ["cyclic_left"] * 3)
 
 
 def test_gradient_matches_finite_differences(steps):

@@ -111,11 +111,15 @@ def _phase_durations(t: np.ndarray, phase_time: np.ndarray) -> np.ndarray:
     return np.diff(boundaries)
 
 
-def phase_templates(steps: TrainingSteps) -> dict[str, np.ndarray]:
-    """Per step type, the mean fraction of the step at which each phase ends (boundaries in [0, 1])."""
+def phase_templates(steps: TrainingSteps, types: list[str] | None = None) -> dict[str, np.ndarray]:
+    """Per step type, the mean fraction of the step at which each phase ends (boundaries in [0, 1]).
+
+    ``types`` (one per step) overrides :func:`step_type`, for steps learned in parts.
+    """
+    types = _types(steps, types)
     out = {}
-    for type_ in sorted({step_type(s) for s in steps.specs}):
-        fractions = [d / d.sum() for s, d in zip(steps.specs, steps.durations) if step_type(s) == type_]
+    for type_ in sorted(set(types)):
+        fractions = [d / d.sum() for t, d in zip(types, steps.durations) if t == type_]
         if len({len(f) for f in fractions}) != 1:
             raise Error(f"steps of type {type_} do not all have the same phases")
         out[type_] = np.concatenate([[0.0], np.cumsum(np.mean(fractions, axis=0))])
@@ -128,11 +132,46 @@ def to_template_time(phase_time: np.ndarray, boundaries: np.ndarray) -> np.ndarr
     return np.interp(phase_time, np.arange(len(boundaries)), boundaries)
 
 
-def resample(steps: TrainingSteps, templates: dict[str, np.ndarray], tau: np.ndarray) -> np.ndarray:
-    """All steps' signals on the template grid ``tau``: (K, I, T)."""
+def resample(
+    steps: TrainingSteps, templates: dict[str, np.ndarray], tau: np.ndarray, types: list[str] | None = None
+) -> np.ndarray:
+    """All steps' signals on the template grid ``tau``: (K, I, T); ``types`` as in :func:`phase_templates`."""
     out = np.empty((len(steps), len(steps.signal_names), len(tau)))
-    for k, (spec, values, pt) in enumerate(zip(steps.specs, steps.values, steps.phase_time)):
-        x = to_template_time(pt, templates[step_type(spec)])
+    for k, (type_, values, pt) in enumerate(zip(_types(steps, types), steps.values, steps.phase_time)):
+        x = to_template_time(pt, templates[type_])
         for i in range(values.shape[1]):
             out[k, i] = np.interp(tau, x, values[:, i])
     return out
+
+
+def split_phases(steps: TrainingSteps, kind: str, phase: int) -> tuple[TrainingSteps, list[str]]:
+    """Cut every step of ``kind`` in two at the start of phase ``phase``.
+
+    Returns the parts (each keeps its step's spec) and their types: a cut step's parts are
+    ``<type>_part1`` and ``<type>_part2``, other steps keep :func:`step_type`.  A stop makes
+    two swings within one step; cut at its middle touchdown, each part has one, like the
+    other kinds.
+    """
+    parts, types = [], []
+    for k, spec in enumerate(steps.specs):
+        pt = steps.phase_time[k]
+        if spec.kind != kind:
+            parts.append((spec, steps.values[k], pt, steps.durations[k]))
+            types.append(step_type(spec))
+            continue
+        if not 0 < phase < len(steps.durations[k]):
+            raise Error(f"a {kind} step has {len(steps.durations[k])} phases: cannot cut it at phase {phase}")
+        before, after = pt <= phase, pt >= phase
+        parts.append((spec, steps.values[k][before], pt[before], steps.durations[k][:phase]))
+        parts.append((spec, steps.values[k][after], pt[after] - phase, steps.durations[k][phase:]))
+        types += [f"{step_type(spec)}_part1", f"{step_type(spec)}_part2"]
+    specs, values, phase_time, durations = (list(x) for x in zip(*parts))
+    return TrainingSteps(specs, values, phase_time, durations, steps.signal_names, steps.source), types
+
+
+def _types(steps: TrainingSteps, types: list[str] | None) -> list[str]:
+    if types is None:
+        return [step_type(s) for s in steps.specs]
+    if len(types) != len(steps):
+        raise Error(f"{len(types)} step types given for {len(steps)} steps")
+    return list(types)
