@@ -33,3 +33,21 @@ def test_legs_reach_their_sole_targets(robot):
     others = np.setdiff1d(np.arange(7, robot.model.nq), legs)
     assert np.array_equal(moved[others], q[others])  # only the legs (and pelvis height) move
     assert np.array_equal(moved[3:7], q[3:7]) and np.array_equal(moved[:2], q[:2])
+
+
+def test_under_the_filters_height_weight_a_far_footstep_is_reached(robot):
+    from cocomopl.synthesis.dynamics_filter import FILTER_HEIGHT_WEIGHT, HEIGHT_WEIGHT, IK_REACHED
+
+    # the right sole asked 0.45 m forward of the left: only a sinking pelvis gets it there
+    q = robot.q_ref.copy()
+    targets = {side: robot.frame_placement(q, frame) for side, frame in robot.foot_frames.items()}
+    targets["right"] = pin.SE3(targets["right"].rotation, targets["right"].translation + [0.45, 0.0, 0.0])
+    sunk, error = {}, {}
+    for weight in (HEIGHT_WEIGHT, FILTER_HEIGHT_WEIGHT):
+        moved = place_legs(robot, q, targets, leg_joints(robot), weight)
+        sunk[weight] = q[2] - moved[2]
+        reached = robot.frame_placement(moved, robot.foot_frames["right"]).translation
+        error[weight] = np.linalg.norm(targets["right"].translation - reached)
+    assert sunk[FILTER_HEIGHT_WEIGHT] > 0.1 and sunk[HEIGHT_WEIGHT] > 0.1  # both give way
+    # but only the filter's weight puts the sole on its footstep by the filter's own test
+    assert error[FILTER_HEIGHT_WEIGHT] < IK_REACHED < error[HEIGHT_WEIGHT]

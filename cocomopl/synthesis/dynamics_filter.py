@@ -43,8 +43,15 @@ IK_ITERATIONS = 20
 IK_TOLERANCE = 1e-7
 IK_REACHED = 1e-5  # m: a sole this close to its footstep is on it  # m and rad of sole error
 IK_DAMPING = 1e-8
-# m of sole error traded for 1 m of pelvis height change: the height moves only when it must
+# m of sole error traded for 1 m of pelvis height change in the legs' inverse kinematics.
+# By default the height moves only when it must, as a pattern generator that prescribes
+# the CoM height wants (the Kajita baseline).  The filter lets it move ten times more
+# readily, so the pelvis sinks rather than a leg stretching to its knee stop to reach a far
+# footstep: at 1e-2 its passes diverged after the fourth and M_gen's plan kept straight
+# knees that then bent at 1.15 x their velocity limit; at 1e-3 they converge monotonically
+# (README, "Known limitations (stage 2)")
 HEIGHT_WEIGHT = 1e-2
+FILTER_HEIGHT_WEIGHT = 1e-3
 
 
 def leg_joints(robot: Robot) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -57,12 +64,15 @@ def leg_joints(robot: Robot) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     return out
 
 
-def place_legs(robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], legs: dict) -> np.ndarray:
+def place_legs(
+    robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], legs: dict, height_weight: float = HEIGHT_WEIGHT
+) -> np.ndarray:
     """``q`` with the legs moved so each sole reaches ``targets[side]``.
 
     Levenberg-Marquardt on the two 6-D sole errors with the twelve leg joints and the
-    pelvis height.  The height is weakly held where it was: it only gives way when a leg
-    would otherwise have to stretch beyond its knee limit (long steps in double support).
+    pelvis height.  The height is weakly held where it was, by ``height_weight`` (m of sole
+    error per m of height): it gives way when a leg would otherwise have to stretch beyond
+    its knee limit (long steps in double support).
     """
     model, data = robot.model, robot.model.createData()
     q = q.copy()
@@ -80,8 +90,8 @@ def place_legs(robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], legs: d
             J = pin.Jlog6(error) @ pin.getFrameJacobian(model, data, frame, pin.LOCAL)
             residuals.append(pin.log6(error).vector)
             jacobians.append(np.column_stack([J[:, :3] @ up, J[:, columns]]))
-        residuals.append([HEIGHT_WEIGHT * (q[2] - height)])
-        jacobians.append(np.eye(1, 1 + len(columns)) * HEIGHT_WEIGHT)
+        residuals.append([height_weight * (q[2] - height)])
+        jacobians.append(np.eye(1, 1 + len(columns)) * height_weight)
         r, J = np.concatenate(residuals), np.vstack(jacobians)
         if r @ r < IK_TOLERANCE**2:
             break
@@ -207,7 +217,9 @@ def dynamics_filter(
     for i in range(passes + 1):
         q_pass = q.copy()
         q_pass[:, :2] += shift
-        q_pass = np.array([place_legs(robot, qk, dict(zip(SIDES, tk)), legs) for qk, tk in zip(q_pass, targets)])
+        q_pass = np.array(
+            [place_legs(robot, qk, dict(zip(SIDES, tk)), legs, FILTER_HEIGHT_WEIGHT) for qk, tk in zip(q_pass, targets)]
+        )
         error = multibody_zmp(robot, t, q_pass, contact, impacts)[:, :2] - zmp_ref[:, :2]
         # pre-impact samples repeat their interval's wrench: they are not ZMP samples
         errors.append(float(np.sqrt(np.nanmean(error[keep] ** 2))))
