@@ -84,9 +84,12 @@ def inverse_dynamics_with_contacts(
     Velocities are backward differences within each impact-free segment, ``q[k] = q[k-1] +
     v[k] dt`` as in the symplectic Euler of the OC motions, and accelerations forward
     differences of them (:func:`finite_difference_accelerations`).  So every interval up to
-    a touchdown has its real acceleration; the post-impact velocity is unknown from
-    positions alone and is taken equal to the next one (zero acceleration over the first
-    interval after a touchdown, in double support).  The floating base is unactuated, so
+    a touchdown has its real acceleration.  The post-impact velocity is unknown from
+    positions alone; the OCPs land softly, so it is taken as the central difference across
+    the touchdown, the mean of the differences just before and just after it.  (Taking the
+    next difference instead, i.e. zero acceleration over the first interval after a
+    touchdown, made the arms' velocity terms alone exceed their torque limits there and fed
+    the dynamics filter a false ZMP error.)  The floating base is unactuated, so
     the contact wrenches must supply the base rows of inverse dynamics; in double support
     the least-norm split between the soles is taken.  Torques and wrenches hold over each
     interval; a segment's last sample repeats the one before.
@@ -104,7 +107,8 @@ def inverse_dynamics_with_contacts(
     for first, last in zip(bounds[:-1] + 1, bounds[1:]):
         for k in range(first + 1, last + 1):
             v[k] = pin.difference(model, q[k - 1], q[k]) / (t[k] - t[k - 1])
-        v[first] = v[first + 1]
+        # a walk's first sample has nothing before it; after a touchdown, the central difference
+        v[first] = v[first + 1] if first == 0 else 0.5 * (v[first - 1] + v[first + 1])
         for k in range(first, last):
             a = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
             rhs = pin.rnea(model, data, q[k], v[k], a)

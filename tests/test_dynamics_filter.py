@@ -51,3 +51,24 @@ def test_under_the_filters_height_weight_a_far_footstep_is_reached(robot):
     assert sunk[FILTER_HEIGHT_WEIGHT] > 0.1 and sunk[HEIGHT_WEIGHT] > 0.1  # both give way
     # but only the filter's weight puts the sole on its footstep by the filter's own test
     assert error[FILTER_HEIGHT_WEIGHT] < IK_REACHED < error[HEIGHT_WEIGHT]
+
+
+def test_a_soft_touchdown_adds_no_torque_spike_to_inverse_dynamics(robot):
+    from cocomopl.dynamics import inverse_dynamics_with_contacts
+
+    # both soles down, one elbow swinging smoothly; a touchdown declared halfway (its time twice)
+    t = np.arange(21) * 0.025
+    q = np.tile(robot.q_ref, (len(t), 1))
+    elbow = robot.joint_names.index("arm_right_4_joint")
+    q[:, 7 + elbow] += 0.3 * np.sin(2 * np.pi * t)
+    contact = np.ones((len(t), 2), dtype=bool)
+    free = inverse_dynamics_with_contacts(robot, t, q, contact, np.array([], dtype=int))[1][:, elbow]
+    k = 7  # where the elbow both moves and accelerates
+    t2, q2, c2 = np.insert(t, k, t[k]), np.insert(q, k, q[k], axis=0), np.insert(contact, k, contact[k], axis=0)
+    v, tau, _ = inverse_dynamics_with_contacts(robot, t2, q2, c2, np.array([k]))
+    # the post-impact velocity is the central difference of the positions around the touchdown
+    np.testing.assert_allclose(v[k + 1, 6 + elbow], (q[k + 1, 7 + elbow] - q[k - 1, 7 + elbow]) / 0.05, atol=1e-9)
+    # so its interval keeps a real acceleration: the torque stays nearer the impact-free one
+    # than under zero acceleration, the rule that made arm torques spike after touchdowns
+    zero_acceleration = pin.rnea(robot.model, robot.model.createData(), q2[k + 1], v[k + 2], np.zeros(robot.model.nv))
+    assert abs(tau[k + 1, elbow] - free[k]) < 0.6 * abs(zero_acceleration[6 + elbow] - free[k])
