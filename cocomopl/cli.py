@@ -36,36 +36,38 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _positive_float(text: str) -> float:
+def _number(text: str) -> float:
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def _positive_float(text: str) -> float:
+    value = _number(text)
     if not value > 0 or value == float("inf"):
         raise argparse.ArgumentTypeError(f"{text!r} must be a positive finite number")
     return value
 
 
+def _checked(check, value: float) -> float:
+    """``check(value)``, its :class:`Error` turned into argparse's one-line usage error."""
+    try:
+        return check(value)
+    except Error as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _contact_time_constant(text: str) -> float:
     from cocomopl.sim.model import check_contact_time_constant
 
-    try:
-        return check_contact_time_constant(_positive_float(text))
-    except Error as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    return _checked(check_contact_time_constant, _positive_float(text))
 
 
 def _reference_cutoff(text: str) -> float:
     from cocomopl.sim.rollout import check_reference_cutoff
 
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    try:
-        return check_reference_cutoff(value)
-    except Error as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    return _checked(check_reference_cutoff, _number(text))
 
 
 CUTOFF_HELP = "cut-off in Hz of the low-pass of the reference joints (default: 15; 0 plays the plan's knots interpolated linearly)"

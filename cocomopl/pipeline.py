@@ -92,12 +92,12 @@ def simulate_walk(
     """
     from cocomopl.analysis.metrics import summary
     from cocomopl.sim.model import build_sim_model
-    from cocomopl.sim.rollout import simulate
+    from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
 
     sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
-    options = {} if reference_cutoff_hz is None else {"reference_cutoff_hz": reference_cutoff_hz}
-    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, **options)
+    cutoff = REFERENCE_CUTOFF_HZ if reference_cutoff_hz is None else reference_cutoff_hz
+    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout, summary(robot, rollout.measured, motion)
