@@ -5,9 +5,10 @@ the last repeating the one before it (a stop starts in its own gait), each withi
 ``--max-change-mm`` of the one before (default 100 mm: the largest change between
 consecutive steps in the paper's training set, 150 -> 250; the bundled set's transitions
 change by 50 mm; 0 removes the limit), is generated with the bundled model (or ``--model``), placed in the
-world (with the dynamics filter) and
-simulated with the stabilizer on, and with it off.  Goal (issue #4): at least 95 % walk
-without falling.
+world (with the dynamics filter and the upper body's limit correction), checked as a plan
+with the checks of ``cocomopl dataset check`` (inverse dynamics, ZMP margin, friction, limits;
+issue #3, point 6), and simulated with the stabilizer on, and with it off.  Goal (issue #4):
+at least 95 % walk without falling.
 
     python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2]
         [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
@@ -25,6 +26,7 @@ import time
 import numpy as np
 from tqdm import tqdm
 
+from cocomopl.analysis.feasibility import AT_LEAST
 from cocomopl.cli import BUNDLED_MODEL
 from cocomopl.errors import Error
 from cocomopl.primitives.model_file import load_model
@@ -33,13 +35,18 @@ from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 
 def run_one(lengths_mm: list[float], contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
+    from cocomopl.analysis.feasibility import check_motion, tolerances, violations
+    from cocomopl.ocp.models import OCPSettings
     from cocomopl.pipeline import generate_walk
     from cocomopl.sim.model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
     walk = generate_walk([x / 1000 for x in lengths_mm], model)
     sim = build_sim_model(walk.robot, visuals=False, contact_time_constant=contact_time_constant)
-    out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration}
+    # the plan against the checks of `cocomopl dataset check`, with the OC data's friction
+    checks = check_motion(walk.robot, walk.motion, OCPSettings().friction)
+    out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration, "plan_checks": checks,
+           "plan_violations": violations(checks, tolerances(float(np.median(np.diff(walk.motion.t)))))}
     for name, stabilizer in (("stabilizer", True), ("no_stabilizer", False)):
         rollout = simulate(sim, walk.motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz)
         weight = walk.robot.mass * 9.81
@@ -96,6 +103,17 @@ def main() -> int:
             "walked_fraction": float(np.mean(walked)),
             "peak_force_over_weight_median": float(np.median([r[name]["peak_force_over_weight"] for r in results])),
         }
+    summary["plans_within_all_checks"] = int(sum(not r["plan_violations"] for r in results))
+    summary["plan_violations"] = {
+        name: int(sum(name in r["plan_violations"] for r in results)) for name in sorted({v for r in results for v in r["plan_violations"]})
+    }
+    summary["plan_worst"] = {
+        name: float(np.min(values) if name in AT_LEAST else np.max(values))
+        for name, values in ((k, [r["plan_checks"][k] for r in results]) for k in results[0]["plan_checks"])
+    }
+    summary["plan_failures"] = [
+        {"lengths_mm": r["lengths_mm"], **{name: r["plan_checks"][name] for name in r["plan_violations"]}} for r in results if r["plan_violations"]
+    ]
     summary["falls"] = [r for r in results if r["stabilizer"]["fell"] or r["no_stabilizer"]["fell"]]
     if args.json:
         print(json.dumps(summary))
@@ -104,6 +122,8 @@ def main() -> int:
             s = summary[name]
             print(f"{name:14s} walked {s['walked']}/{args.n} ({100 * s['walked_fraction']:.0f} %), "
                   f"median peak force {s['peak_force_over_weight_median']:.2f} x weight")
+        print(f"plans within all {len(summary['plan_worst'])} checks of `cocomopl dataset check`: "
+              f"{summary['plans_within_all_checks']}/{args.n}; failed: {summary['plan_violations'] or 'none'}")
         for r in summary["falls"]:
             print("fell:", r["lengths_mm"], {k: r[k]["fall_time_s"] for k in ("stabilizer", "no_stabilizer")})
         print(f"{summary['wall_time_s']:.0f} s")

@@ -298,10 +298,15 @@ def cmd_generate(args) -> int:
     payload = {"output": str(out), "steps": rows, "n_steps": len(steps), "duration_s": motion.duration,
                "generation_s": generation_s, "placement_s": placement_s,
                "dynamics_filter_zmp_error_m": motion.meta["dynamics_filter_kept_error_m"],
+               "upper_body_limits": motion.meta["upper_body_limits"],
                "out_of_support": [r["step"] for r in rows if not r["in_support"]]}
     lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support"]
     lines += [f"{r['step']:24s} {r['duration_s']:8.3f}s {r['joint_std_max_rad']:12.4f}rad  "
               + ("ok" if r["in_support"] else f"OUTSIDE ({r['distance_mm']:.0f} mm away)") for r in rows]
+    upper = motion.meta["upper_body_limits"]
+    lines.append(f"upper body (the joints that carry no sole) corrected by up to {upper['largest_change_rad']:.3f} rad: torque "
+                 f"{upper['torque_ratio_before']:.2f} -> {upper['torque_ratio_after']:.2f}, velocity "
+                 f"{upper['velocity_ratio_before']:.2f} -> {upper['velocity_ratio_after']:.2f} of the limits")
     lines.append(f"wrote {out}: {len(steps)} steps, {motion.duration:.2f} s of walking; generated in "
                  f"{generation_s * 1e6:.0f} us, placed in the world in {placement_s * 1e3:.0f} ms")
     _emit(args, payload, "\n".join(lines))

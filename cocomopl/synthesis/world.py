@@ -20,6 +20,7 @@ from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter
+from cocomopl.synthesis.upper_body_limits import limit_upper_body
 
 
 def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
@@ -167,12 +168,14 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
     impacts = np.array(impacts[:-1], dtype=int)
     q, filter_errors, kept = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
+    q, upper_body = limit_upper_body(robot, t, q, contact, impacts)
     return kinematic_motion(
         robot, t, q, contact, impacts, phases, [s.spec for s in steps], np.array(starts),
         meta={
             "producer": "primitives",
             "dynamics_filter_zmp_error_m": filter_errors,
             "dynamics_filter_kept_error_m": filter_errors[kept],
+            "upper_body_limits": upper_body,
         }, zmp=zmp,
     )
 
