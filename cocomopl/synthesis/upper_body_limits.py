@@ -42,6 +42,9 @@ TOLERANCE = 0.01  # relative excess over the margin that ends the iteration
 NEAR = 0.8  # fraction of the margin from which a torque or velocity is constrained
 POSITION_NEAR = 0.05  # rad from a position limit from which an angle is constrained
 POSITION_TOLERANCE = 1e-6  # rad beyond a position limit that ends the iteration
+# ProxQP iterations per QP: the corrections of trained models converge in about 30; a walk
+# too far from consistent to correct (tens of times its torque limits) must not stall
+QP_MAX_ITERATIONS = 200
 
 
 def upper_body_joints(robot: Robot) -> np.ndarray:
@@ -137,9 +140,9 @@ def limit_upper_body(
 
     Returns the corrected configurations and a report: the upper body's worst torque and
     velocity ratios and position excess (rad) before and after, the largest change (rad)
-    and the QPs solved.  Where no change can bring them within (the QP is infeasible), the
-    last feasible correction is returned and the report says how far over the limits the
-    motion stays.
+    and the QPs solved.  Where no change brings them within (a QP is infeasible, or the
+    linearisation fails), the iterate that exceeds the limits least is returned and the
+    report says by how much.
     """
     upper = upper_body_joints(robot)
     V, A, instant = difference_operators(t, impacts)
@@ -154,7 +157,7 @@ def limit_upper_body(
     low = np.tile(robot.q_lower[upper], u) - angles  # the position limits as bounds on the change
     high = np.tile(robot.q_upper[upper], u) - angles
     x = np.zeros(u * m)
-    before, solved = None, 0
+    before, best, solved = None, None, 0
     near, near_position = np.zeros(n_tau + n_v, dtype=bool), np.zeros(u * m, dtype=bool)
     for iteration in range(ITERATIONS + 1):
         corrected = q.copy()
@@ -164,6 +167,9 @@ def limit_upper_body(
         excess = max(float(np.max(x - high)), float(np.max(low - x)), 0.0)
         worst = {"torque_ratio": float(ratio[:n_tau].max()), "velocity_ratio": float(ratio[n_tau:].max()), "position_excess_rad": excess}
         before = before or worst
+        over = max(ratio.max() - margin, 0.0) + excess
+        if best is None or over < best[0]:
+            best = (over, corrected, worst, x)
         if (ratio.max() <= margin * (1 + TOLERANCE) and excess <= POSITION_TOLERANCE) or iteration == ITERATIONS:
             break
         # the rows near their limits, linearised about the current correction; a row once
@@ -180,11 +186,13 @@ def limit_upper_body(
         offset = C[: len(rows)] @ x - value[rows]
         bound = margin * limit[rows]
         result = proxqp.sparse.solve(
-            H=H, g=np.zeros(u * m), C=C, l=np.r_[offset - bound, low[angle]], u=np.r_[offset + bound, high[angle]], eps_abs=1e-9
+            H=H, g=np.zeros(u * m), C=C, l=np.r_[offset - bound, low[angle]], u=np.r_[offset + bound, high[angle]],
+            eps_abs=1e-9, max_iter=QP_MAX_ITERATIONS,
         )
         if result.info.status != proxqp.PROXQP_SOLVED:
             break  # no change within the limits (a joint's gravity torque alone over them): keep the last
         x = result.x
         solved += 1
+    _, corrected, worst, x = best
     report = {f"{key}_before": value for key, value in before.items()} | {f"{key}_after": value for key, value in worst.items()}
     return corrected, report | {"largest_change_rad": float(np.abs(x).max()), "qps_solved": solved}
