@@ -32,10 +32,9 @@ import numpy as np
 
 from cocomopl.errors import Error
 from cocomopl.primitives.model import signal_groups
-from cocomopl.primitives.training import load_training_steps, phase_templates, resample, split_phases
+from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample
 
 DATASET = "cocomopl/data/dataset.h5"
-STOP_MIDDLE_PHASE = 2  # a stop's phases: double support, swing, double support, swing, double support
 WEIGHTS = np.geomspace(1.0, 1e4, 17)  # squared weight of the ZMP and pelvis groups
 
 
@@ -82,7 +81,7 @@ def main() -> int:
     types = None
     if args.split_stops:
         try:
-            steps, types = split_phases(steps, "stop", STOP_MIDDLE_PHASE)
+            steps, types = learned_parts(steps)
         except Error as exc:
             parser.error(str(exc))
     X = resample(steps, phase_templates(steps, types), np.linspace(0.0, 1.0, 100), types)

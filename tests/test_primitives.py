@@ -16,7 +16,7 @@ import cocomopl
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.model import MovementPrimitives
-from cocomopl.primitives.training import load_training_steps, phase_templates, resample, split_phases, step_type
+from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample, split_phases, step_type
 from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
 
 DATASET = Path(cocomopl.__file__).parent / "data" / "dataset.h5"
@@ -87,9 +87,9 @@ def test_gradient_matches_finite_differences(steps):
 
     few = steps.subset(range(0, len(steps), 4))
     tau = np.linspace(0, 1, 12)
-    layout = _SlotLayout(few)
+    layout = _SlotLayout(few, [step_type(s) for s in few.specs])
     X = resample(few, phase_templates(few), tau)
-    params, data = initial_parameters(layout.to_slots(X), layout.mask, layout.d2, tau, 2)
+    params, data = initial_parameters(layout.to_slots(X), layout.mask, layout.d2, tau, 2, np.ones(X.shape[1]))
     rng = np.random.default_rng(0)
     params = {k: v + 0.05 * rng.standard_normal(np.shape(v)) for k, v in params.items()}
     flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
@@ -107,10 +107,17 @@ def test_fit_reports_bound_and_explained_variance(model, steps):
     assert np.isfinite(model.bound_)
     assert set(model.explained_variance_) == {"joints", "zmp", "pelvis"}
     assert all(0.8 < v <= 1.0 for v in model.explained_variance_.values())
-    # predicting the training steps reproduces the fit: the overall explained variance is a
-    # variance-weighted mean of the groups'
-    ev = model.explained_variance_.values()
-    assert min(ev) - 1e-3 <= model.score(steps) <= max(ev) + 1e-3
+    # predicting the learned trajectories (the steps, stops in their two parts) from their
+    # specs reproduces the fit
+    from cocomopl.primitives.model import explained_variance
+
+    parts, types = learned_parts(steps)
+    X = resample(parts, phase_templates(parts, types), model.state_["tau"], types)
+    X_hat = np.stack([model._predict_trajectory(t, spec, None).values.T for t, spec in zip(types, parts.specs)])
+    for group, value in explained_variance(X, X_hat, steps.signal_names).items():
+        assert value == pytest.approx(model.explained_variance_[group], abs=1e-3)
+    # whole steps, each stop's second part conditioned on its first, score a little lower
+    assert 0.5 < model.score(steps) <= 1.0
 
 
 def test_prediction_at_training_step_has_training_duration(model, steps):
@@ -119,6 +126,39 @@ def test_prediction_at_training_step_has_training_duration(model, steps):
     np.testing.assert_allclose(step.durations, steps.durations[k], rtol=0.02)
     assert step.in_support and step.distance == 0.0
     assert step.values.shape == (30, 36) and np.all(step.std >= 0)
+
+
+def test_a_stop_is_predicted_in_its_two_learned_parts_and_joined_at_its_middle_touchdown(model, steps):
+    assert {"stop_left_part1", "stop_left_part2"} <= set(model.types) and "stop_left" not in model.types
+    k = [s.name for s in steps.specs].index("stop_250_L")
+    step = model.predict(steps.specs[k])
+    assert len(step.durations) == 5 and len(step.boundaries) == 6
+    np.testing.assert_allclose(step.durations, steps.durations[k], rtol=0.05)
+    # the touchdown's normalised time appears twice, pre- and post-impact, at the phase boundary
+    cut = np.flatnonzero(np.diff(step.tau) == 0)
+    assert len(cut) == 1 and step.tau[cut[0]] == step.boundaries[2]
+    assert step.values.shape == (60, 36) and step.std.shape == (60, 36)
+    # the second part is conditioned on the first's end, as steps are on their predecessor's
+    joints = slice(0, 30)
+    assert np.abs(step.values[cut[0] + 1, joints] - step.values[cut[0], joints]).max() < 1e-5
+    # sampled in real time, the touchdown repeats its time with each part's own end values
+    from cocomopl.synthesis.world import _sample_step
+
+    t, values, _ = _sample_step(step, 0.025)
+    touchdown = np.flatnonzero(np.diff(t) == 0)
+    assert t[touchdown[0]] == pytest.approx(step.phase_edges[2])
+    np.testing.assert_allclose(values[touchdown[0]], step.values[cut[0]], atol=1e-12)
+    np.testing.assert_allclose(values[touchdown[0] + 1], step.values[cut[0] + 1], atol=1e-12)
+
+
+def test_pca_weights_give_each_signal_group_the_same_total_variance(steps):
+    from cocomopl.primitives.model import pca_signal_weights, signal_groups
+
+    X = resample(steps, phase_templates(steps), np.linspace(0, 1, 20))
+    weights = pca_signal_weights(X, steps.signal_names)
+    weighted = (X * weights[None, :, None]).var(axis=(0, 2))
+    totals = [weighted[idx].sum() for idx in signal_groups(steps.signal_names).values()]
+    np.testing.assert_allclose(totals, 1.0, rtol=1e-9)
 
 
 def test_conditioning_makes_the_sequence_continuous(model):

@@ -21,8 +21,10 @@ from cocomopl.motion import StepSpec
 from cocomopl.primitives import durations as duration_gp
 from cocomopl.primitives.training import (
     TrainingSteps,
+    learned_parts,
     phase_templates,
     resample,
+    resample_step,
     step_lengths,
     step_type,
 )
@@ -49,29 +51,41 @@ def _fraction_explained(X: np.ndarray, X_hat: np.ndarray, signals) -> float:
     return float(1.0 - ((X - X_hat)[:, signals] ** 2).sum() / (centred[:, signals] ** 2).sum())
 
 
+def pca_signal_weights(X: np.ndarray, names: list[str]) -> np.ndarray:
+    """Scale (I,) of each signal in the PCA that gives the primitives their prior means.
+
+    The signals are in different units (rad, m) and the groups differ in size (30 joint
+    angles, 3 ZMP coordinates, 3 pelvis angles), so each signal is standardised and each
+    group given the same total weight; unscaled, the joints swamp the PCA, and the prior
+    means it gives left the ZMP's touchdown features out of every primitive.
+    """
+    variance = X.var(axis=(0, 2))
+    weights = np.empty(len(names))
+    for idx in signal_groups(names).values():
+        weights[idx] = 1.0 / np.sqrt(np.maximum(variance[idx], 1e-12) * len(idx))
+    return weights
+
+
 class PredictedStep:
     """A step predicted by the model: signals on the template grid, durations and uncertainty.
 
     Attributes
     ----------
     spec : StepSpec
-    tau : (T,) normalised time grid; ``boundaries`` (P+1,) its phase boundaries
-    weights, weight_var : (I, S) posterior mean and variance of the weights
+    tau : (T,) normalised time grid; ``boundaries`` (P+1,) its phase boundaries.  A step
+        learned in parts (a stop) repeats the time of the touchdown between them, pre- and
+        post-impact, as a :class:`~cocomopl.motion.Motion` does
     values, std : (T, I) posterior mean and standard deviation of the signals
     durations, duration_std : (P,) phase durations and their standard deviation, s
     distance : distance of (start, end) lengths to the nearest training step of the type, m
     in_support : whether that distance is within the training grid's spacing
     """
 
-    def __init__(self, spec, tau, weights, weight_var, primitives, primitive_var, boundaries, durations,
-                 duration_std, distance, in_support):
+    def __init__(self, spec, tau, values, std_terms, boundaries, durations, duration_std, distance, in_support):
         self.spec = spec
         self.tau = tau
-        self.weights = weights
-        self.weight_var = weight_var
-        self.values = (weights @ primitives).T
-        self._primitives = primitives
-        self._primitive_var = primitive_var
+        self.values = values
+        self._std_terms = std_terms  # per part: (weights, weight_var, primitives, primitive_var)
         self.boundaries = boundaries
         self.durations = durations
         self.duration_std = duration_std
@@ -81,8 +95,7 @@ class PredictedStep:
     @property
     def std(self) -> np.ndarray:
         """Posterior standard deviation of the signals, (T, I); computed on demand."""
-        second_moment = self._primitives**2 + self._primitive_var
-        return np.sqrt(self.weight_var @ second_moment + self.weights**2 @ self._primitive_var).T
+        return np.concatenate([_signal_std(*terms) for terms in self._std_terms])
 
     @property
     def phase_edges(self) -> np.ndarray:
@@ -92,6 +105,31 @@ class PredictedStep:
     @property
     def duration(self) -> float:
         return float(self.durations.sum())
+
+    @classmethod
+    def joined(cls, spec, parts: list[PredictedStep]) -> PredictedStep:
+        """One step from its consecutive parts: each part's grid takes the share of the
+        step's normalised time that its predicted duration takes of the whole."""
+        shares = np.array([p.duration for p in parts]) / sum(p.duration for p in parts)
+        starts = np.concatenate([[0.0], np.cumsum(shares)])
+        tau = np.concatenate([a + w * p.tau for a, w, p in zip(starts, shares, parts)])
+        boundaries = np.concatenate([[0.0]] + [a + w * p.boundaries[1:] for a, w, p in zip(starts, shares, parts)])
+        return cls(
+            spec,
+            tau,
+            np.concatenate([p.values for p in parts]),
+            [t for p in parts for t in p._std_terms],
+            boundaries,
+            np.concatenate([p.durations for p in parts]),
+            np.concatenate([p.duration_std for p in parts]),
+            max(p.distance for p in parts),
+            all(p.in_support for p in parts),
+        )
+
+
+def _signal_std(weights, weight_var, primitives, primitive_var) -> np.ndarray:
+    second_moment = primitives**2 + primitive_var
+    return np.sqrt(weight_var @ second_moment + weights**2 @ primitive_var).T
 
 
 class MovementPrimitives:
@@ -122,12 +160,14 @@ class MovementPrimitives:
 
         self.validate(steps)
         started = time.perf_counter()
-        templates = phase_templates(steps)
+        parts, types = learned_parts(steps)
+        templates = phase_templates(parts, types)
         tau = np.linspace(0.0, 1.0, self.n_grid)
-        X = resample(steps, templates, tau)
-        layout = _SlotLayout(steps)
+        X = resample(parts, templates, tau, types)
+        layout = _SlotLayout(parts, types)
         result = optimise.maximise_bound(
-            layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations
+            layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations,
+            pca_signal_weights(X, steps.signal_names),
         )
         self.state_ = {
             "tau": tau,
@@ -138,11 +178,12 @@ class MovementPrimitives:
             "mask": layout.mask,
             "boundaries": _pad_boundaries([templates[t] for t in layout.types]),
             **result["arrays"],
-            **_fit_durations(steps, layout),
+            **_fit_durations(parts, layout),
         }
         self.bound_ = result["bound"]
         self.n_iter_ = result["iterations"]
         self.fit_time_s_ = time.perf_counter() - started
+        # over the learned trajectories: every step, the stops in their two parts
         self.explained_variance_ = explained_variance(X, layout.from_slots(result["reconstruction"]), steps.signal_names)
         return self
 
@@ -225,9 +266,22 @@ class MovementPrimitives:
             at touchdown, in the OC data too.
         """
         self._check_fitted()
-        c = self._type_arrays(step_type(spec))
-        if c is None:
+        type_ = step_type(spec)
+        if type_ in self.types:
+            return self._predict_trajectory(type_, spec, start)
+        parts = [t for t in self.types if t.startswith(f"{type_}_part")]
+        if not parts:
             raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
+        # a step learned in parts: each part starts where the one before ended, as steps do
+        predicted = []
+        for part in sorted(parts):
+            predicted.append(self._predict_trajectory(part, spec, start))
+            start = predicted[-1].values[-1]
+        return PredictedStep.joined(spec, predicted)
+
+    def _predict_trajectory(self, type_: str, spec: StepSpec, start: np.ndarray | None) -> PredictedStep:
+        """:meth:`predict` for one learned trajectory type (a step type, or a part of one)."""
+        c = self._type_arrays(type_)
         z = step_lengths(spec)
         d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
         # weights of all (signal, primitive) pairs at once, flattened to (I*S,): cross-covariances
@@ -243,13 +297,12 @@ class MovementPrimitives:
         durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=1))
         log_var = c["dur_alpha"][:, 0] - (k[:, None, :] @ c["dur_K_inv"] @ k[:, :, None])[:, 0, 0]
         distance = float(np.sqrt(d2.min()))
+        m = self.state_["m"]
         return PredictedStep(
             spec,
             self.state_["tau"],
-            w,
-            var,
-            self.state_["m"],
-            self.state_["m_var"],
+            (w @ m).T,
+            [(w, var, m, self.state_["m_var"])],
             c["boundaries"],
             durations,
             durations * np.sqrt(np.maximum(log_var, 0.0)),
@@ -259,18 +312,19 @@ class MovementPrimitives:
 
     # ------------------------------------------------------------------ score
     def reconstruct(self, steps: TrainingSteps) -> tuple[np.ndarray, np.ndarray]:
-        """Signals of ``steps`` on the grid (K, I, T) and the model's predictions of them."""
+        """Signals of ``steps`` and the model's predictions of them, (K, I, T) each, on the
+        grid ``tau`` with the phase boundaries of each prediction (a step learned in parts
+        is compared whole)."""
         self._check_fitted()
         if list(steps.signal_names) != self.signal_names:
             raise Error("these steps have different signals from the model's")
-        templates = dict(zip(self.types, self.state_["boundaries"]))
-        templates = {t: b[~np.isnan(b)] for t, b in templates.items()}
-        missing = {step_type(s) for s in steps.specs} - set(templates)
-        if missing:
-            raise Error(f"the model has no steps of type {', '.join(sorted(missing))}")
-        X = resample(steps, templates, self.state_["tau"])
-        X_hat = np.stack([self.predict(spec).values.T for spec in steps.specs])
-        return X, X_hat
+        tau = self.state_["tau"]
+        X, X_hat = [], []
+        for spec, values, phase_time in zip(steps.specs, steps.values, steps.phase_time):
+            step = self.predict(spec)
+            X.append(resample_step(values, phase_time, step.boundaries, tau))
+            X_hat.append(np.stack([np.interp(tau, step.tau, x) for x in step.values.T]))
+        return np.stack(X), np.stack(X_hat)
 
     def score(self, steps: TrainingSteps) -> float:
         """Explained variance of all signals of ``steps`` (1 is perfect)."""
@@ -291,9 +345,9 @@ def _condition(w, var, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:
 class _SlotLayout:
     """Steps arranged by type: ``slots[g]`` lists the step indices of type ``types[g]``."""
 
-    def __init__(self, steps: TrainingSteps):
-        self.types = sorted({step_type(s) for s in steps.specs})
-        self.slots = [[k for k, s in enumerate(steps.specs) if step_type(s) == t] for t in self.types]
+    def __init__(self, steps: TrainingSteps, types: list[str]):
+        self.types = sorted(set(types))
+        self.slots = [[k for k, t in enumerate(types) if t == type_] for type_ in self.types]
         G, N = len(self.types), max(len(s) for s in self.slots)
         self.mask = np.zeros((G, N))
         self.lengths = np.zeros((G, N, 2))

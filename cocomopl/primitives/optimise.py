@@ -30,11 +30,12 @@ def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.nd
     return BoundData(X_slots, mask, d2, np.abs(tau[:, None] - tau[None, :]), mu)
 
 
-def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, S: int):
-    """PCA start: MP means are the leading right singular vectors of the (steps x signals, time) data."""
+def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, S: int, signal_weights: np.ndarray):
+    """PCA start: MP means are the leading right singular vectors of the (steps x signals,
+    time) data, each signal scaled by ``signal_weights`` (I,)."""
     I, T = X_slots.shape[2:]
     real = X_slots[mask > 0]  # (K, I, T)
-    _, _, Vt = np.linalg.svd(real.reshape(-1, T), full_matrices=False)
+    _, _, Vt = np.linalg.svd((real * signal_weights[None, :, None]).reshape(-1, T), full_matrices=False)
     mu = Vt[:S] * np.sqrt(T)  # unit RMS primitives
     w = np.einsum("gnit,st->isgn", X_slots, mu) / T  # PCA weights
     residual = real - np.einsum("isk,st->kit", w.transpose(0, 1, 2, 3)[:, :, mask > 0], mu)
@@ -84,9 +85,10 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     return best[1], best[2]
 
 
-def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: int) -> dict:
-    """Fit Q and the kernel hyperparameters; return the arrays prediction needs."""
-    params, data = initial_parameters(X_slots, mask, d2, tau, S)
+def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: int, signal_weights: np.ndarray) -> dict:
+    """Fit Q and the kernel hyperparameters, starting from the PCA of the signals scaled by
+    ``signal_weights`` (I,); return the arrays prediction needs."""
+    params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
     params["log_ell_t"] = np.full(S, np.log(0.1))
     flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
     bounds = _bounds(params, tau)

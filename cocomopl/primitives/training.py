@@ -136,12 +136,16 @@ def resample(
     steps: TrainingSteps, templates: dict[str, np.ndarray], tau: np.ndarray, types: list[str] | None = None
 ) -> np.ndarray:
     """All steps' signals on the template grid ``tau``: (K, I, T); ``types`` as in :func:`phase_templates`."""
-    out = np.empty((len(steps), len(steps.signal_names), len(tau)))
-    for k, (type_, values, pt) in enumerate(zip(_types(steps, types), steps.values, steps.phase_time)):
-        x = to_template_time(pt, templates[type_])
-        for i in range(values.shape[1]):
-            out[k, i] = np.interp(tau, x, values[:, i])
-    return out
+    return np.stack(
+        [resample_step(v, pt, templates[t], tau) for t, v, pt in zip(_types(steps, types), steps.values, steps.phase_time)]
+    )
+
+
+def resample_step(values: np.ndarray, phase_time: np.ndarray, boundaries: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """One step's signals (n, I) at per-phase times ``phase_time`` on the template grid
+    ``tau`` of phase ``boundaries``: (I, T)."""
+    x = to_template_time(phase_time, boundaries)
+    return np.stack([np.interp(tau, x, values[:, i]) for i in range(values.shape[1])])
 
 
 def split_phases(steps: TrainingSteps, kind: str, phase: int) -> tuple[TrainingSteps, list[str]]:
@@ -167,6 +171,22 @@ def split_phases(steps: TrainingSteps, kind: str, phase: int) -> tuple[TrainingS
         types += [f"{step_type(spec)}_part1", f"{step_type(spec)}_part2"]
     specs, values, phase_time, durations = (list(x) for x in zip(*parts))
     return TrainingSteps(specs, values, phase_time, durations, steps.signal_names, steps.source), types
+
+
+# a stop's phases: double support, swing, double support, swing, double support; its middle
+# touchdown starts phase 2
+STOP_MIDDLE_PHASE = 2
+
+
+def learned_parts(steps: TrainingSteps) -> tuple[TrainingSteps, list[str]]:
+    """The trajectories the primitives learn: every step whole, except stops, which are cut
+    at their middle touchdown (:func:`split_phases`).
+
+    A stop makes two swings within one step; learned whole, its second swing sits at a
+    different normalised time from every other step's one, and the stops alone left most of
+    what 11 shared primitives cannot explain (README, "Stage 2: primitives").
+    """
+    return split_phases(steps, "stop", STOP_MIDDLE_PHASE)
 
 
 def _types(steps: TrainingSteps, types: list[str] | None) -> list[str]:

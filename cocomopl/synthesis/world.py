@@ -72,7 +72,7 @@ def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray
         b0, b1 = step.boundaries[first], step.boundaries[last + 1]
         inside = (step.tau > b0) & (step.tau < b1)
         knots = np.concatenate([[b0], step.tau[inside], [b1]])
-        ends = [np.array([np.interp(b, step.tau, x) for x in step.values.T]) for b in (b0, b1)]
+        ends = [_value_at(step, b0, after=True), _value_at(step, b1, after=False)]
         spline = CubicSpline(knots, np.vstack([ends[0], step.values[inside], ends[1]]), axis=0)
         # evenly spaced, at most dt apart: a short last interval would blow up finite differences
         n = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
@@ -81,6 +81,16 @@ def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray
         values.append(spline(np.interp(t, edges, step.boundaries)))
         phases.append(np.clip(np.searchsorted(edges, t, side="right") - 1, first, last))
     return np.concatenate(ts), np.concatenate(values), np.concatenate(phases)
+
+
+def _value_at(step: PredictedStep, b: float, after: bool) -> np.ndarray:
+    """The step's signals (I,) at normalised time ``b``.  Where the grid repeats ``b`` (the
+    touchdown between two parts a step was learned in), the post-impact value if ``after``,
+    else the pre-impact one."""
+    at = np.flatnonzero(step.tau == b)
+    if len(at) > 1:
+        return step.values[at[-1] if after else at[0]]
+    return np.array([np.interp(b, step.tau, x) for x in step.values.T])
 
 
 def _support(air: str | None) -> np.ndarray:
