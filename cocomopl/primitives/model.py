@@ -180,6 +180,8 @@ class MovementPrimitives:
             **result["arrays"],
             **_fit_durations(parts, layout),
         }
+        for cache in ("_cache", "_trajectories"):  # per-type lookups of a previous fit
+            self.__dict__.pop(cache, None)
         self.bound_ = result["bound"]
         self.n_iter_ = result["iterations"]
         self.fit_time_s_ = time.perf_counter() - started
@@ -266,18 +268,28 @@ class MovementPrimitives:
             at touchdown, in the OC data too.
         """
         self._check_fitted()
-        type_ = step_type(spec)
-        if type_ in self.types:
-            return self._predict_trajectory(type_, spec, start)
-        parts = [t for t in self.types if t.startswith(f"{type_}_part")]
-        if not parts:
+        trajectories = self._trajectory_types(step_type(spec))
+        if not trajectories:
             raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
+        if len(trajectories) == 1:
+            return self._predict_trajectory(trajectories[0], spec, start)
         # a step learned in parts: each part starts where the one before ended, as steps do
         predicted = []
-        for part in sorted(parts):
-            predicted.append(self._predict_trajectory(part, spec, start))
+        for type_ in trajectories:
+            predicted.append(self._predict_trajectory(type_, spec, start))
             start = predicted[-1].values[-1]
         return PredictedStep.joined(spec, predicted)
+
+    def _trajectory_types(self, type_: str) -> list[str]:
+        """The learned trajectory types a step type is predicted from: itself, or its parts
+        in order (none if the model has neither); looked up once per type."""
+        if not hasattr(self, "_trajectories"):
+            self._trajectories = {}
+        if type_ not in self._trajectories:
+            types = self.types
+            parts = sorted(t for t in types if t.startswith(f"{type_}_part"))
+            self._trajectories[type_] = [type_] if type_ in types else parts
+        return self._trajectories[type_]
 
     def _predict_trajectory(self, type_: str, spec: StepSpec, start: np.ndarray | None) -> PredictedStep:
         """:meth:`predict` for one learned trajectory type (a step type, or a part of one)."""

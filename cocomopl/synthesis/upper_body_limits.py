@@ -42,9 +42,12 @@ TOLERANCE = 0.01  # relative excess over the margin that ends the iteration
 NEAR = 0.8  # fraction of the margin from which a torque or velocity is constrained
 POSITION_NEAR = 0.05  # rad from a position limit from which an angle is constrained
 POSITION_TOLERANCE = 1e-6  # rad beyond a position limit that ends the iteration
-# ProxQP iterations per QP: the corrections of trained models converge in about 30; a walk
-# too far from consistent to correct (tens of times its torque limits) must not stall
-QP_MAX_ITERATIONS = 200
+# ProxQP's outer and inner iterations per QP: the corrections of trained models converge in
+# under 10; a walk too far from consistent to correct (tens of times its torque limits) must
+# not stall the placement
+QP_MAX_ITERATIONS = 50
+QP_MAX_INNER_ITERATIONS = 50
+QP_TOLERANCE = 1e-7  # N m, rad/s and rad of constraint violation; the margin leaves 5 %
 
 
 def upper_body_joints(robot: Robot) -> np.ndarray:
@@ -124,6 +127,20 @@ def _torque_rows(robot: Robot, q: np.ndarray, A: sp.csr_matrix, samples: np.ndar
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
 
 
+def _solve_qp(H: sp.csc_matrix, C: sp.csc_matrix, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
+    """argmin ½ xᵀHx subject to lower ≤ Cx ≤ upper with ProxQP, or None if it finds none."""
+    qp = proxqp.sparse.QP(H.shape[0], 0, C.shape[0])
+    qp.settings.eps_abs = QP_TOLERANCE
+    qp.settings.max_iter = QP_MAX_ITERATIONS
+    qp.settings.max_iter_in = QP_MAX_INNER_ITERATIONS
+    # the KKT systems are banded (each row couples a few neighbouring instants): a sparse
+    # factorisation, not the matrix-free backend ProxQP may pick for large problems
+    qp.settings.sparse_backend = proxqp.SparseBackend.SparseCholesky
+    qp.init(H, np.zeros(H.shape[0]), None, None, C, lower, upper)
+    qp.solve()
+    return qp.results.x.copy() if qp.results.info.status == proxqp.PROXQP_SOLVED else None
+
+
 def _limited_values(robot: Robot, t, q, contact, impacts, intervals: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """The upper body's torques on each interval, then its velocities at each sample, as
     one vector (sample-major)."""
@@ -185,13 +202,10 @@ def limit_upper_body(
         ]).tocsc()
         offset = C[: len(rows)] @ x - value[rows]
         bound = margin * limit[rows]
-        result = proxqp.sparse.solve(
-            H=H, g=np.zeros(u * m), C=C, l=np.r_[offset - bound, low[angle]], u=np.r_[offset + bound, high[angle]],
-            eps_abs=1e-9, max_iter=QP_MAX_ITERATIONS,
-        )
-        if result.info.status != proxqp.PROXQP_SOLVED:
-            break  # no change within the limits (a joint's gravity torque alone over them): keep the last
-        x = result.x
+        solution = _solve_qp(H, C, np.r_[offset - bound, low[angle]], np.r_[offset + bound, high[angle]])
+        if solution is None:
+            break  # no change within the limits (a joint's gravity torque alone over them): keep the best
+        x = solution
         solved += 1
     _, corrected, worst, x = best
     report = {f"{key}_before": value for key, value in before.items()} | {f"{key}_after": value for key, value in worst.items()}

@@ -20,7 +20,9 @@ from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter
-from cocomopl.synthesis.upper_body_limits import limit_upper_body
+from cocomopl.synthesis.upper_body_limits import limit_upper_body, upper_body_joints
+
+REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
 
 
 def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
@@ -129,6 +131,26 @@ def ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray
     return feet["end" if swung else "start"][side]
 
 
+def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp) -> tuple[np.ndarray, dict]:
+    """The upper-body limit correction of a filtered walk.  The corrected arms move the ZMP
+    (by up to 5 cm on random walks), so the dynamics filter runs again, briefly, to take that
+    back, and the correction once more on what the filter's new pelvis motion changes.
+
+    Returns the configurations and the report of :func:`limit_upper_body`, from the first
+    correction's excess to the last's.
+    """
+    upper = 7 + upper_body_joints(robot)
+    filtered = q[:, upper]
+    q, first = limit_upper_body(robot, t, q, contact, impacts)
+    q, _, _ = dynamics_filter(robot, t, q, contact, impacts, ground, zmp, passes=REFILTER_PASSES)
+    q, last = limit_upper_body(robot, t, q, contact, impacts)
+    report = {k: v for k, v in first.items() if k.endswith("_before")} | {k: v for k, v in last.items() if k.endswith("_after")}
+    return q, report | {
+        "largest_change_rad": float(np.abs(q[:, upper] - filtered).max()),
+        "qps_solved": first["qps_solved"] + last["qps_solved"],
+    }
+
+
 def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> Motion:
     """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds."""
     model, data = robot.model, robot.model.createData()
@@ -178,7 +200,7 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
     impacts = np.array(impacts[:-1], dtype=int)
     q, filter_errors, kept = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
-    q, upper_body = limit_upper_body(robot, t, q, contact, impacts)
+    q, upper_body = _upper_body_within_limits(robot, t, q, contact, impacts, ground, zmp)
     return kinematic_motion(
         robot, t, q, contact, impacts, phases, [s.spec for s in steps], np.array(starts),
         meta={
