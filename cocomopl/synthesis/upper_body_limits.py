@@ -53,9 +53,7 @@ QP_TOLERANCE = 1e-7  # N m, rad/s and rad of constraint violation; the margin le
 def upper_body_joints(robot: Robot) -> np.ndarray:
     """Actuated-joint indices of the joints that carry no sole (on TALOS the torso, the arms
     and the head)."""
-    model = robot.model
-    legs = {j for frame in robot.foot_frames.values() for j in model.supports[model.frames[frame].parentJoint]}
-    return np.array([j - 2 for j in range(2, model.njoints) if j not in legs], dtype=int)
+    return np.setdiff1d(np.arange(robot.nu), robot.leg_joint_indices())
 
 
 def difference_operators(t: np.ndarray, impacts: np.ndarray) -> tuple[sp.csr_matrix, sp.csr_matrix, np.ndarray]:
