@@ -50,6 +50,13 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    value = _number(text)
+    if not 0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number, 0 or more")
+    return value
+
+
 def _checked(check, value: float) -> float:
     """``check(value)``, its :class:`Error` turned into argparse's one-line usage error."""
     try:
@@ -116,6 +123,8 @@ def cmd_dataset_generate(args) -> int:
         settings = replace(settings, dt=args.dt)
     if args.max_iterations is not None:
         settings = replace(settings, max_iterations=args.max_iterations)
+    if args.load_transfer_weight is not None:
+        settings = replace(settings, w_load_transfer=args.load_transfer_weight)
     out = Path(args.out)
     if out.exists() and out.is_dir():
         raise Error(f"--out {out} is a directory; give a file path such as {out / 'dataset.h5'}")
@@ -467,6 +476,13 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--scheduler", metavar="ADDRESS", help="run on an existing Dask cluster, e.g. tcp://host:8786")
     gen.add_argument("--dt", type=_positive_float, help="knot spacing in seconds (default: 0.025)")
     gen.add_argument("--max-iterations", type=_positive_int, help="solver iterations per attempt (default: 200)")
+    gen.add_argument(
+        "--load-transfer-weight",
+        type=_non_negative_float,
+        metavar="W",
+        help="weight (N^-2) pulling each sole's vertical force in double support towards a linear transfer of the "
+        "body weight between touchdown and lift-off (default: 0, off; README 'Load transfer')",
+    )
     gen.add_argument("--json", action="store_true", help="print one JSON object")
     gen.set_defaults(func=cmd_dataset_generate)
 

@@ -74,7 +74,7 @@ def test_missing_urdf(tmp_path):
     assert not (tmp_path / "d.h5").exists()
 
 
-@pytest.mark.parametrize("option", [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"]])
+@pytest.mark.parametrize("option", [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"], ["--load-transfer-weight", "-0.001"]])
 def test_bad_numeric_options(tmp_path, option):
     result = run_cli("dataset", "generate", *option, "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, option[0])

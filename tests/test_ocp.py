@@ -131,8 +131,9 @@ def test_descent_finds_the_grid_minimum():
     assert descend(lambda x: x, 0.6, 0.0, (0.5, 1.2)) == 0.6
 
 
-def test_torque_rate_term_smooths_torques(robot, motions):
-    """The paper's torque-rate control, as a penalty: torque jumps between knots shrink."""
+def _resolved_cyclic(robot, motions, **changes):
+    """The small dataset's cyclic step solved again, warm-started from itself, with
+    ``changes`` to its OCP settings."""
     from dataclasses import replace
 
     from cocomopl.motion import StepSpec
@@ -141,10 +142,56 @@ def test_torque_rate_term_smooths_torques(robot, motions):
     cyclic = motions["cyclic_200_L"]
     x0 = np.concatenate([cyclic.q[0], cyclic.v[0]])
     warm = list(np.hstack([cyclic.q, cyclic.v]))
+    settings = replace(SMALL, **changes)
+    return to_motion(robot, solve_step(robot, StepSpec("cyclic", 0.2, 0.2), {0.2: x0}, settings, warm), settings)
+
+
+def test_torque_rate_term_smooths_torques(robot, motions):
+    """The paper's torque-rate control, as a penalty: torque jumps between knots shrink."""
     jumps = {}
     for weight in (0.0, 5e-4):
-        settings = replace(SMALL, w_torque_rate=weight)
-        solution = solve_step(robot, StepSpec("cyclic", 0.2, 0.2), {0.2: x0}, settings, warm)
-        tau = to_motion(robot, solution, settings).tau[:-1]
+        tau = _resolved_cyclic(robot, motions, w_torque_rate=weight).tau[:-1]
         jumps[weight] = np.abs(np.diff(tau, axis=0)).max()
     assert jumps[5e-4] < 0.7 * jumps[0.0], jumps
+
+
+def test_load_shares_hand_the_weight_over_linearly():
+    """Between a touchdown and the next lift-off the weight moves linearly from the sole
+    that lifts to the one that stays; double supports at rest are left free."""
+    from cocomopl.ocp.problems import Phase, load_shares
+
+    phases = [
+        Phase("ds", 4),
+        Phase("ss", 3, "left", (0.0, 0.2), (0.2, 0.2)),
+        Phase("impact", swing="left", swing_to=(0.2, 0.2)),
+        Phase("ds", 4),
+        Phase("ss", 3, "right", (0.0, 0.0), (0.2, 0.0)),
+        Phase("impact", swing="right", swing_to=(0.2, 0.0)),
+        Phase("ds", 4),
+    ]
+    transfer = load_shares(phases, 3, from_rest=True)
+    assert [s["left"] for s in transfer] == [0.0, 0.25, 0.5, 0.75]  # left just landed
+    assert [s["right"] for s in transfer] == [1.0, 0.75, 0.5, 0.25]  # right lifts next
+    assert load_shares(phases, 0, from_rest=True) == [None] * 4  # a start from rest
+    assert load_shares(phases, 6, from_rest=True) == [None] * 4  # the final rest
+    # a step that continues a walk begins where the previous step's touchdown left the weight
+    assert load_shares(phases, 0, from_rest=False) == [{"right": k / 4, "left": 1 - k / 4} for k in range(4)]
+    assert load_shares(phases[3:], 0, from_rest=False) == transfer
+
+
+def test_load_transfer_term_hands_the_weight_over_linearly(robot, motions):
+    """Without the term, rigid contacts let the optimiser share the weight in double support
+    as it likes (and drop a sole's load in a jump at lift-off); with it, the soles' vertical
+    forces follow the linear transfer of :func:`load_shares` far more closely."""
+    from cocomopl.analysis.metrics import vertical_forces
+
+    error = {}
+    for weight in (0.0, 3e-3):
+        motion = _resolved_cyclic(robot, motions, w_load_transfer=weight)
+        (_, first, last) = motion.phases[0]  # the double support; the left sole lifts after it
+        assert motion.phases[1][0] == "ss" and not motion.contact[last, 0]
+        forces = vertical_forces(motion)[first:last]
+        shares = forces[:, 0] / forces.sum(axis=1)
+        ramp = 1.0 - np.arange(last - first) / (last - first)  # the left sole's share, 1 down to (almost) 0
+        error[weight] = np.abs(shares - ramp).max()
+    assert error[3e-3] < 0.5 * error[0.0], error

@@ -15,6 +15,7 @@ import crocoddyl
 import numpy as np
 import pinocchio as pin
 
+from cocomopl.dynamics import GRAVITY
 from cocomopl.robot import Robot
 
 INF = 1e9  # crocoddyl barriers take finite bounds
@@ -59,6 +60,11 @@ class OCPSettings:
     w_placement: float = 1e6
     w_target: float = 1e5
     w_swing_guide: float = 1e3
+    # on each sole's vertical force in double support against a linear transfer of the
+    # weight from the sole that lifts next to the one that landed, N^-2 (README "Load
+    # transfer").  Off by default: it smooths the OC walk's forces but not enough of the
+    # generated walk's, and raised its peak force over the 1.3 x weight goal
+    w_load_transfer: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -108,6 +114,15 @@ def wrench_cone_cost(robot: Robot, state, side: str, nu: int, settings: OCPSetti
     residual = crocoddyl.ResidualModelContactWrenchCone(state, robot.foot_frames[side], cone, nu, True)
     activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(cone.lb, cone.ub))
     return crocoddyl.CostModelResidual(state, activation, residual)
+
+
+def load_transfer_cost(robot: Robot, state, side: str, force: float, nu: int) -> crocoddyl.CostModelResidual:
+    """Pull on the vertical force of ``side``'s sole towards ``force`` (N)."""
+    residual = crocoddyl.ResidualModelContactForce(
+        state, robot.foot_frames[side], pin.Force(np.array([0.0, 0.0, force, 0.0, 0.0, 0.0])), 6, nu, True
+    )
+    vertical = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    return crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(vertical), residual)
 
 
 def joint_limit_cost(robot: Robot, state, nu: int, settings: OCPSettings):
@@ -160,13 +175,16 @@ def contact_knot(
     swing_guide: pin.SE3 | None = None,
     clearance: float = 0.0,
     x_target: np.ndarray | None = None,
+    load_shares: dict[str, float] | None = None,
 ) -> crocoddyl.IntegratedActionModelEuler:
     """One knot of a double-support (two stance feet) or single-support (one) phase.
 
     ``stance`` maps each foot in contact to its sole placement.
 
     With ``dt == 0`` it is a terminal knot: only state costs count, and ``x_target``
-    pins the state (continuity with the neighbouring step).
+    pins the state (continuity with the neighbouring step).  ``load_shares`` maps stance
+    feet to the fraction of the body weight their soles should carry at this knot
+    (:func:`cocomopl.ocp.problems.load_shares`).
     """
     terminal = dt == 0.0
     actuation = crocoddyl.ActuationModelFloatingBase(state)
@@ -180,6 +198,9 @@ def contact_knot(
         costs.addCost(f"{side}_anchor", foot_placement_cost(robot, state, side, placement, nu), settings.w_anchor)
         if not terminal:
             costs.addCost(f"{side}_wrench_cone", wrench_cone_cost(robot, state, side, nu, settings), settings.w_constraint)
+        if not terminal and load_shares is not None and settings.w_load_transfer > 0:
+            load = load_shares[side] * robot.mass * GRAVITY
+            costs.addCost(f"{side}_load", load_transfer_cost(robot, state, side, load, nu), settings.w_load_transfer)
     if not terminal:
         costs.addCost("torque", torque_cost(state, nu), settings.w_torque)
     if x_target is not None:

@@ -140,6 +140,26 @@ def _flat(xy: tuple[float, float]) -> pin.SE3:
     return pin.SE3(np.eye(3), np.array([xy[0], xy[1], 0.0]))
 
 
+def load_shares(phases: list[Phase], i: int, from_rest: bool) -> list[dict[str, float] | None]:
+    """Fractions of the body weight each sole should carry at the knots of double support
+    ``phases[i]``, if it hands the weight over from one foot to the other.
+
+    Between a touchdown (or the start of a step that continues a walk) and the next lift-off
+    the weight moves linearly from the foot that carried it to the one that stays down:
+    none on a sole when it lands, none when it lifts.  Double supports that begin or end at
+    rest (``from_rest``: the first of a start step; the last of a stop) get None at every
+    knot: held to the transfer there too, four of the 32 training OCPs found no solution
+    within the friction cone.
+    """
+    phase = phases[i]
+    before = phases[i - 1] if i > 0 else None
+    after = phases[i + 1] if i + 1 < len(phases) else None
+    if (from_rest and before is None) or after is None or after.kind != "ss":
+        return [None] * phase.knots
+    landed, lifts = OTHER[after.swing], after.swing
+    return [{landed: k / phase.knots, lifts: 1.0 - k / phase.knots} for k in range(phase.knots)]
+
+
 def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocoddyl.ShootingProblem:
     """A Crocoddyl shooting problem for a step plan."""
     state = crocoddyl.StateMultibody(robot.model)
@@ -148,9 +168,12 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
     pin.framesForwardKinematics(robot.model, data, plan.x0[: robot.model.nq])
     feet = {side: _flat(data.oMf[robot.foot_frames[side]].translation[:2]) for side in ("left", "right")}
     knots: list = []
-    for phase in plan.phases:
+    for i, phase in enumerate(plan.phases):
         if phase.kind == "ds":
-            knots += [contact_knot(robot, state, dict(feet), x_ref, settings, settings.dt) for _ in range(phase.knots)]
+            knots += [
+                contact_knot(robot, state, dict(feet), x_ref, settings, settings.dt, load_shares=shares)
+                for shares in load_shares(plan.phases, i, plan.spec.kind == "start")
+            ]
         elif phase.kind == "ss":
             stance = {OTHER[phase.swing]: feet[OTHER[phase.swing]]}
             for k in range(phase.knots):
