@@ -306,7 +306,7 @@ def cmd_generate(args) -> int:
         "distance_mm": 1000 * s.distance} for s in steps]
     payload = {"output": str(out), "steps": rows, "n_steps": len(steps), "duration_s": motion.duration,
                "generation_s": generation_s, "placement_s": placement_s,
-               "dynamics_filter_zmp_error_m": motion.meta["dynamics_filter_kept_error_m"],
+               "dynamics_filter_zmp_error_m": motion.meta["plan_zmp_error_m"],
                "upper_body_limits": motion.meta["upper_body_limits"],
                "out_of_support": [r["step"] for r in rows if not r["in_support"]]}
     lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support"]

@@ -66,7 +66,7 @@ def generate_walk(
     placement_s = time.perf_counter() - started
     motion.meta.update({"model": str(model_path), "lengths_mm": [1000 * x for x in lengths]})
     messages = [str(w.message) for w in caught]
-    error = motion.meta["dynamics_filter_kept_error_m"]
+    error = motion.meta["plan_zmp_error_m"]
     if error > FILTER_WARNING_M:
         messages.append(
             f"the dynamics filter left the walk's ZMP {100 * error:.1f} cm RMS from the learned one "
@@ -149,7 +149,7 @@ def walk_report(
         **metrics,
         "generation_s": walk.generation_s,
         "placement_s": walk.placement_s,
-        "dynamics_filter_zmp_error_m": walk.motion.meta["dynamics_filter_kept_error_m"],
+        "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
         "warnings": walk.warnings,
         "files": [str(f) for f in files + [out_dir / "metrics.json"]],
     }

@@ -2,8 +2,9 @@
 
 import numpy as np
 import pinocchio as pin
+import pytest
 
-from cocomopl.synthesis.dynamics_filter import GRAVITY, leg_joints, place_legs, zmp_correction
+from cocomopl.synthesis.dynamics_filter import GRAVITY, leg_joints, place_legs, rms_zmp_error, zmp_correction
 
 
 def test_correction_cancels_a_cart_table_zmp_error():
@@ -72,3 +73,11 @@ def test_a_soft_touchdown_adds_no_torque_spike_to_inverse_dynamics(robot):
     # than under zero acceleration, the rule that made arm torques spike after touchdowns
     zero_acceleration = pin.rnea(robot.model, robot.model.createData(), q2[k + 1], v[k + 2], np.zeros(robot.model.nv))
     assert abs(tau[k + 1, elbow] - free[k]) < 0.6 * abs(zero_acceleration[6 + elbow] - free[k])
+
+
+def test_zmp_error_is_horizontal_and_skips_impact_and_airborne_samples():
+    reference = np.zeros((5, 3))
+    zmp = reference + [0.03, 0.04, 0.5]  # the height is not an error
+    zmp[2] = [9.0, 9.0, 0.0]  # a pre-impact sample repeats its interval's wrench: not a ZMP sample
+    zmp[3] = np.nan  # no contact force: no ZMP
+    assert rms_zmp_error(zmp, reference, np.array([2])) == pytest.approx(np.sqrt((0.03**2 + 0.04**2) / 2))

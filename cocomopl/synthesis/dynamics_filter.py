@@ -179,6 +179,15 @@ def multibody_zmp(robot: Robot, t, q, contact, impacts) -> np.ndarray:
     return zmp_from_wrenches(sole_placements(robot, q), wrenches)
 
 
+def rms_zmp_error(zmp: np.ndarray, zmp_ref: np.ndarray, impacts: np.ndarray) -> float:
+    """RMS (m), over the samples and both horizontal axes, of ``zmp - zmp_ref`` (n, 3),
+    leaving out the pre-impact samples ``impacts``: they repeat their interval's wrench, so
+    they are not ZMP samples.  NaN samples (no contact force) are skipped."""
+    keep = np.ones(len(zmp), dtype=bool)
+    keep[impacts] = False
+    return float(np.sqrt(np.nanmean((zmp[keep, :2] - zmp_ref[keep, :2]) ** 2)))
+
+
 def dynamics_filter(
     robot: Robot,
     t: np.ndarray,
@@ -220,9 +229,9 @@ def dynamics_filter(
         q_pass = np.array(
             [place_legs(robot, qk, dict(zip(SIDES, tk)), legs, FILTER_HEIGHT_WEIGHT) for qk, tk in zip(q_pass, targets)]
         )
-        error = multibody_zmp(robot, t, q_pass, contact, impacts)[:, :2] - zmp_ref[:, :2]
-        # pre-impact samples repeat their interval's wrench: they are not ZMP samples
-        errors.append(float(np.sqrt(np.nanmean(error[keep] ** 2))))
+        zmp = multibody_zmp(robot, t, q_pass, contact, impacts)
+        error = zmp[:, :2] - zmp_ref[:, :2]
+        errors.append(rms_zmp_error(zmp, zmp_ref, impacts))
         # a pass whose shift put a planned footstep out of the legs' reach is not a candidate
         score = (_stance_error(robot, q_pass, ground) > IK_REACHED, errors[-1])
         if best is None or score < best[0]:

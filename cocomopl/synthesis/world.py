@@ -14,12 +14,12 @@ import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
-from cocomopl.dynamics import SIDES, kinematic_motion
+from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.ocp.problems import OTHER, foot_separation
 from cocomopl.primitives.model import PredictedStep
 from cocomopl.robot import Robot
-from cocomopl.synthesis.dynamics_filter import dynamics_filter
+from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
 from cocomopl.synthesis.upper_body_limits import limit_upper_body, upper_body_joints
 
 REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
@@ -201,7 +201,7 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     impacts = np.array(impacts[:-1], dtype=int)
     q, filter_errors, kept = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
     q, upper_body = _upper_body_within_limits(robot, t, q, contact, impacts, ground, zmp)
-    return kinematic_motion(
+    motion = kinematic_motion(
         robot, t, q, contact, impacts, phases, [s.spec for s in steps], np.array(starts),
         meta={
             "producer": "primitives",
@@ -210,5 +210,10 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
             "upper_body_limits": upper_body,
         }, zmp=zmp,
     )
+    # the upper-body correction and the filter's second run move the ZMP after the first
+    # run's kept pass: what the walk is judged by is the plan's own
+    multibody = zmp_from_wrenches(sole_placements(robot, q), motion.wrenches)
+    motion.meta["plan_zmp_error_m"] = rms_zmp_error(multibody, zmp, impacts)
+    return motion
 
 
