@@ -12,6 +12,7 @@ from cocomopl.motion import StepSpec
 from cocomopl.primitives import model_file
 from cocomopl.primitives.model import MovementPrimitives
 from cocomopl.primitives.model_file import (
+    FORMAT_VERSION,
     REQUIRED,
     load_model,
     model_metadata,
@@ -79,7 +80,7 @@ def test_round_trip(model, saved):
 
 def test_metadata(model, saved):
     meta = model_metadata(saved)
-    assert meta["format"] == "cocomopl-model" and meta["format_version"] == 1
+    assert meta["format"] == "cocomopl-model" and meta["format_version"] == FORMAT_VERSION
     assert meta["checksum"] == model_file.checksum(model.state_)
     assert (meta["n_primitives"], meta["kernel"], meta["n_grid"]) == (3, "rbf", 30)
     assert meta["bound"] == model.bound_ and meta["n_iter"] == model.n_iter_
@@ -168,7 +169,7 @@ def _bad_metadata_json(saved: Path, out: Path) -> Path:
 
 
 def _wrong_version(saved: Path, out: Path) -> Path:
-    return resave(saved, out, change_meta=lambda meta: meta.update(format_version=2))
+    return resave(saved, out, change_meta=lambda meta: meta.update(format_version=FORMAT_VERSION - 1))
 
 
 def _tampered(saved: Path, out: Path) -> Path:
@@ -205,7 +206,7 @@ def _missing_metadata_entry(saved: Path, out: Path) -> Path:
         (_npy, ["not a cocomopl model file"]),
         (_other_format, ["not a cocomopl model file"]),
         (_bad_metadata_json, ["not a cocomopl model file"]),
-        (_wrong_version, ["has format version 2; this cocomopl reads version 1"]),
+        (_wrong_version, [f"has format version {FORMAT_VERSION - 1}; this cocomopl reads version {FORMAT_VERSION}", "cocomopl train"]),
         (_tampered, ["is corrupted: checksum mismatch"]),
         (_missing_array, ["lacks the model arrays dur_K_inv"]),
         (_missing_metadata_entry, ["incomplete or invalid metadata", "bound"]),

@@ -24,7 +24,9 @@ from cocomopl.motion_file import atomic_path
 from cocomopl.primitives.model import MovementPrimitives
 
 FORMAT = "cocomopl-model"
-FORMAT_VERSION = 1
+# 2: stops are learned in two parts, step types ``stop_<side>_part1`` and ``_part2``
+# (version 1 had whole stops, which this version's prediction does not chain)
+FORMAT_VERSION = 2
 METADATA_KEY = "__metadata__"
 # what np.load and reading an archive member raise on a truncated, corrupt or foreign file
 _UNREADABLE = (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, KeyError)
@@ -145,7 +147,10 @@ def _read(path: str | Path) -> tuple[dict, dict[str, np.ndarray]]:
         raise Error(f"{path} is not a cocomopl model file")
     version = meta.get("format_version")
     if version != FORMAT_VERSION:
-        raise Error(f"{path} has format version {version}; this cocomopl reads version {FORMAT_VERSION}")
+        raise Error(
+            f"{path} has format version {version}; this cocomopl reads version {FORMAT_VERSION} "
+            "(train the model again with cocomopl train)"
+        )
     if meta.get("checksum") != checksum(arrays):
         raise Error(f"{path} is corrupted: checksum mismatch")
     missing = [name for name in REQUIRED if name not in arrays]
