@@ -106,6 +106,10 @@ class PredictedStep:
     def duration(self) -> float:
         return float(self.durations.sum())
 
+    def values_at(self, tau: np.ndarray) -> np.ndarray:
+        """The signals (len(tau), I) linearly interpolated at normalised times ``tau``."""
+        return np.stack([np.interp(tau, self.tau, x) for x in self.values.T], axis=1)
+
     @classmethod
     def joined(cls, spec, parts: list[PredictedStep]) -> PredictedStep:
         """One step from its consecutive parts: each part's grid takes the share of the
@@ -335,7 +339,7 @@ class MovementPrimitives:
         for spec, values, phase_time in zip(steps.specs, steps.values, steps.phase_time):
             step = self.predict(spec)
             X.append(resample_step(values, phase_time, step.boundaries, tau))
-            X_hat.append(np.stack([np.interp(tau, step.tau, x) for x in step.values.T]))
+            X_hat.append(step.values_at(tau).T)
         return np.stack(X), np.stack(X_hat)
 
     def score(self, steps: TrainingSteps) -> float:

@@ -92,7 +92,7 @@ def _value_at(step: PredictedStep, b: float, after: bool) -> np.ndarray:
     at = np.flatnonzero(step.tau == b)
     if len(at) > 1:
         return step.values[at[-1] if after else at[0]]
-    return np.array([np.interp(b, step.tau, x) for x in step.values.T])
+    return step.values_at(np.array([b]))[0]
 
 
 def _support(air: str | None) -> np.ndarray:
