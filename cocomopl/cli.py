@@ -345,6 +345,7 @@ METRIC_ROWS = (
     ("rms_torque", "RMS joint torque (N m)", "{:.2f}"),
     ("zmp_rms_error", "ZMP RMS error vs reference (m)", "{:.4f}"),
     ("tracking_rms_rad", "joint tracking RMS (rad)", "{:.4f}"),
+    ("touchdown_delay_median_s", "median touchdown delay (s)", "{:+.3f}"),
     ("foot_slip_m", "foot slip (m)", "{:.4f}"),
     ("duration_s", "duration (s)", "{:.2f}"),
 )
@@ -413,11 +414,14 @@ def cmd_reproduce(args) -> int:
     lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
     lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
-    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force variation/W':>18s} {'(planned)':>10s} {'ZMP RMS (m)':>12s}")
+    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force variation/W':>18s} {'(planned)':>10s} "
+                 f"{'ZMP RMS (m)':>12s} {'touchdown delay (s)':>20s}")
     for name, m in payload["metrics"].items():
         zmp = "-" if m["zmp_rms_error"] is None else f"{m['zmp_rms_error']:.4f}"
+        delay = "-" if m["touchdown_delay_median_s"] is None else f"{m['touchdown_delay_median_s']:+.3f}"
         lines.append(f"{name:12s} {m['fell']!s:>5s} {m['peak_force_over_weight']:9.2f} "
-                     f"{m['force_variation_over_weight']:18.1f} {payload['planned_force_variation_over_weight'][name]:10.1f} {zmp:>12s}")
+                     f"{m['force_variation_over_weight']:18.1f} {payload['planned_force_variation_over_weight'][name]:10.1f} "
+                     f"{zmp:>12s} {delay:>20s}")
     lines.append(f"MP contact forces smoother than Kajita's: {payload['mp_smoother_than_kajita']}")
     lines.append(f"M_opt solved in {payload['m_opt_solve_s']:.0f} s; report in {args.out}/ ({payload['wall_time_s']:.0f} s)")
     _emit(args, payload, "\n".join(lines))

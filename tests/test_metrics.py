@@ -48,6 +48,27 @@ def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=No
     )
 
 
+def test_touchdown_delays_match_each_planned_touchdown_to_the_same_soles_nearest(robot):
+    """Planned: the left sole lands at 0.05 s, the right at 0.5 s.  Measured (its clock
+    starting 1 s later, which must not matter): the left lands at 0.07 s and again, after a
+    bounce, at 0.30 s; the right lands at 0.48 s and at 0.9 s.  So 20 ms late and 20 ms early;
+    the later touchdowns are nobody's; a left touchdown planned at 0.75 s that never comes
+    is left out."""
+    t = np.linspace(0.0, 1.0, 101)
+    planned, measured = np.zeros((101, 2)), np.zeros((101, 2))
+    planned[5:, 0], planned[50:, 1] = 100.0, 100.0
+    planned[60:75, 0] = 0.0  # the left lifts off and lands again at 0.75 s
+    measured[7:20, 0], measured[30:, 0] = 100.0, 100.0
+    measured[48:60, 1], measured[90:, 1] = 100.0, 100.0
+    reference, rollout = synthetic(robot, t, fz=planned), synthetic(robot, t + 1.0, fz=measured)
+    delays = metrics.touchdown_delays(rollout, reference)
+    assert np.allclose(np.sort(delays), [-0.02, 0.02])
+    summary = metrics.summary(robot, rollout, reference)
+    assert summary["touchdown_delay_median_s"] == pytest.approx(0.0)
+    assert abs(summary["touchdown_delay_max_s"]) == pytest.approx(0.02)
+    assert metrics.touchdown_delays(synthetic(robot, t), reference).size == 0
+
+
 def test_landing_speed_of_a_body_dropping_onto_one_sole(robot):
     """The whole robot moves down at 0.3 m/s and forward at 0.4 m/s until its left sole
     touches: every point of it, the sole included, lands at 0.5 m/s; the right sole never lands."""

@@ -35,6 +35,8 @@ FORCE_FILTER_S = 0.02
 # A sole pushing with less than this fraction of the body weight is not counted as a
 # stance foot for slip: while the foot rolls off or lands it may move legitimately.
 SLIP_FORCE_RATIO = 0.05
+# s: a measured touchdown further than this from a planned one is not that touchdown
+TOUCHDOWN_WINDOW_S = 0.2
 
 
 def truncated(motion: Motion, seconds: float) -> Motion:
@@ -311,6 +313,31 @@ def landing_speeds(robot: Robot, motion: Motion) -> np.ndarray:
     return np.array(speeds)
 
 
+def touchdown_times(motion: Motion) -> list[np.ndarray]:
+    """Per (left, right) sole, the times (s, from the motion's first sample) of its
+    touchdowns: the first sample in contact after one in the air (a planned motion's
+    post-impact sample, a measured one's first sample with force)."""
+    t = motion.t - motion.t[0]
+    return [t[1:][motion.contact[1:, j] & ~motion.contact[:-1, j]] for j in range(2)]
+
+
+def touchdown_delays(measured: Motion, reference: Motion, window: float = TOUCHDOWN_WINDOW_S) -> np.ndarray:
+    """How late (s; negative: early) each planned touchdown happens in ``measured``.
+
+    Each touchdown of ``reference`` is matched to the same sole's nearest measured one;
+    a planned touchdown with none within ``window`` seconds (the robot fell before it, or
+    the foot never landed) is left out.  Both motions are timed from their first samples.
+    A position-controlled robot that lands late drops its weight onto the foot as it
+    arrives; one that lands early takes the load gradually.
+    """
+    out = []
+    for planned, actual in zip(touchdown_times(reference), touchdown_times(measured)):
+        for t in planned:
+            if len(actual) and np.abs(actual - t).min() <= window:
+                out.append(actual[np.argmin(np.abs(actual - t))] - t)
+    return np.array(out)
+
+
 def _finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
@@ -333,7 +360,9 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     the body weight), ``total_force_variation_over_weight`` (:func:`total_force_variation`
     over the body weight), ``knee_torque_peak`` (N m), ``foot_slip_m``,
     ``end_balance_margin_m``, ``max_landing_speed`` (m/s, :func:`landing_speeds`), and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
-    ``reference_mean_torque`` and ``completed`` (measured duration / reference duration)
+    ``touchdown_delay_median_s`` and ``touchdown_delay_max_s`` (the median and the largest
+    absolute value of :func:`touchdown_delays`, sign kept), ``reference_mean_torque`` and
+    ``completed`` (measured duration / reference duration)
     """
     walked = measured if reference is None else truncated(measured, reference.duration)
     out = {
@@ -354,12 +383,17 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
         "zmp_rms_error": None,
         "tracking_rms_rad": None,
         "tracking_max_rad": None,
+        "touchdown_delay_median_s": None,
+        "touchdown_delay_max_s": None,
         "reference_mean_torque": None,
         "completed": None,
     }
     if reference is not None:
         tracking = tracking_error(measured, reference)
+        delays = touchdown_delays(measured, reference)
         out.update(
+            touchdown_delay_median_s=float(np.median(delays)) if len(delays) else None,
+            touchdown_delay_max_s=float(delays[np.argmax(np.abs(delays))]) if len(delays) else None,
             zmp_rms_error=_finite_or_none(zmp_rms_error(measured, reference)),
             tracking_rms_rad=tracking["rms"],
             tracking_max_rad=tracking["max"],
