@@ -102,7 +102,7 @@ def cmd_dataset_generate(args) -> int:
 
     from cocomopl.dataset.generate import generate
     from cocomopl.dataset.plan import parse_lengths_mm, parse_transitions_mm
-    from cocomopl.ocp.models import OCPSettings
+    from cocomopl.ocp.models import OCPSettings, knee_bounds
     from cocomopl.ocp.posture import double_support_posture
     from cocomopl.ocp.problems import foot_separation
     from cocomopl.robot import Robot
@@ -125,6 +125,9 @@ def cmd_dataset_generate(args) -> int:
         settings = replace(settings, max_iterations=args.max_iterations)
     if args.load_transfer_weight is not None:
         settings = replace(settings, w_load_transfer=args.load_transfer_weight)
+    if args.min_knee_flexion_rad is not None:
+        knee_bounds(robot, args.min_knee_flexion_rad)  # a bend the knees cannot make is refused before solving
+        settings = replace(settings, min_knee_flexion=args.min_knee_flexion_rad)
     out = Path(args.out)
     if out.exists() and out.is_dir():
         raise Error(f"--out {out} is a directory; give a file path such as {out / 'dataset.h5'}")
@@ -486,6 +489,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="W",
         help="weight (N^-2) pulling each sole's vertical force in double support towards a linear transfer of the "
         "body weight between touchdown and lift-off (default: 0, off; README 'Load transfer')",
+    )
+    gen.add_argument(
+        "--min-knee-flexion-rad",
+        type=_non_negative_float,
+        metavar="RAD",
+        help="least bend of the knees, in radians, at every knot (default: 0, only the URDF's limits; README 'Knee flexion')",
     )
     gen.add_argument("--json", action="store_true", help="print one JSON object")
     gen.set_defaults(func=cmd_dataset_generate)

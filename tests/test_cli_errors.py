@@ -74,10 +74,19 @@ def test_missing_urdf(tmp_path):
     assert not (tmp_path / "d.h5").exists()
 
 
-@pytest.mark.parametrize("option", [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"], ["--load-transfer-weight", "-0.001"]])
+@pytest.mark.parametrize(
+    "option",
+    [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"], ["--load-transfer-weight", "-0.001"], ["--min-knee-flexion-rad", "-0.1"]],
+)
 def test_bad_numeric_options(tmp_path, option):
     result = run_cli("dataset", "generate", *option, "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, option[0])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_knee_bend_beyond_the_knee_limits(tmp_path):
+    result = run_cli("dataset", "generate", "--min-knee-flexion-rad", "3", "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "beyond talos's knee limits")
     assert list(tmp_path.iterdir()) == []
 
 

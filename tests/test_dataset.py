@@ -108,6 +108,25 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path):
         assert not part.exists() or part.stat().st_mtime_ns == saved[name]
 
 
+def test_a_part_solved_with_other_settings_is_solved_again(tmp_path, small_dataset):
+    """A rerun reuses a saved step only if it was solved with the same OCP settings: after
+    an interrupted run, the same command with another option must not mix the two."""
+    from dataclasses import replace
+
+    from cocomopl.dataset.generate import _finished_part
+    from cocomopl.motion_file import write_motions
+
+    motions, _ = read_motions(small_dataset)
+    name, motion = next(iter(motions.items()))
+    part = tmp_path / f"{name}.h5"
+    write_motions(part, {name: motion}, {"content": "part", "settings": SMALL.as_dict()})
+    assert _finished_part(part, SMALL).t.tolist() == motion.t.tolist()
+    assert _finished_part(part, replace(SMALL, min_knee_flexion=0.3)) is None
+    assert not part.exists()
+    part.write_bytes(b"not HDF5")  # a part damaged by the kill
+    assert _finished_part(part, SMALL) is None and not part.exists()
+
+
 def test_dask_cluster_path(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     from cocomopl.dataset.generate import generate

@@ -12,6 +12,7 @@ from cocomopl.dataset.continuity import step_mismatch
 from cocomopl.dataset.plan import successors
 from cocomopl.dataset.signals import training_signals
 from cocomopl.dynamics import finite_difference_accelerations, inverse_dynamics_residual, sole_placements
+from cocomopl.errors import Error
 from cocomopl.motion_file import read_motions
 from cocomopl.robot import mirror_motion
 
@@ -153,6 +154,37 @@ def test_torque_rate_term_smooths_torques(robot, motions):
         tau = _resolved_cyclic(robot, motions, w_torque_rate=weight).tau[:-1]
         jumps[weight] = np.abs(np.diff(tau, axis=0)).max()
     assert jumps[5e-4] < 0.7 * jumps[0.0], jumps
+
+
+def test_min_knee_flexion_bends_the_knees(robot, motions):
+    """The small cyclic step stretches a knee to 0.10 rad; asked for a 0.3 rad bend, the
+    least knee angle over its knots rises by more than 0.1 rad.  (The limit is a penalty
+    barrier, which the coarse 50 ms knots and the initial state, whose knees are at 0.24
+    and 0.33 rad, hold only roughly; on the 25 ms training OCPs it holds within 0.01 rad.)"""
+    knees = [7 + roles["knee"] for roles in robot.leg_roles().values()]
+    free = _resolved_cyclic(robot, motions).q[:, knees].min()
+    bent = _resolved_cyclic(robot, motions, min_knee_flexion=0.3).q[:, knees].min()
+    assert free < 0.15 and bent > free + 0.1, (free, bent)
+
+
+def test_knee_bounds_bend_each_knee_the_way_its_limits_allow(robot):
+    """TALOS's knees bend towards positive angles; a robot whose knees bend the other way
+    gets the bound on the other side, and a bend beyond the limits is refused."""
+    import copy
+
+    from cocomopl.ocp.models import knee_bounds
+
+    knees = [roles["knee"] for roles in robot.leg_roles().values()]
+    lower, upper = knee_bounds(robot, 0.4)
+    assert np.allclose(lower[knees], 0.4) and np.allclose(upper, robot.q_upper)
+    others = np.setdiff1d(np.arange(robot.nu), knees)
+    assert np.allclose(lower[others], robot.q_lower[others])
+    mirrored = copy.copy(robot)
+    mirrored.q_lower, mirrored.q_upper = -robot.q_upper, -robot.q_lower
+    lower, upper = knee_bounds(mirrored, 0.4)
+    assert np.allclose(upper[knees], -0.4) and np.allclose(lower, mirrored.q_lower)
+    with pytest.raises(Error, match="knee limits"):
+        knee_bounds(robot, robot.q_upper[knees].max() + 0.1)
 
 
 def test_load_shares_hand_the_weight_over_linearly():

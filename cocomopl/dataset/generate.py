@@ -10,6 +10,7 @@ and left out of the training data.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import json
 import os
 import shutil
 import sys
@@ -24,7 +25,7 @@ from cocomopl.dataset.plan import default_transitions, successors, training_spec
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.motion_file import read_motion, writable_folder, write_motions
+from cocomopl.motion_file import read_motions, writable_folder, write_motions
 from cocomopl.ocp.models import OCPSettings
 from cocomopl.ocp.solve import length_steps, solve_length, solve_with_retries, to_motion
 from cocomopl.provenance import versions
@@ -87,6 +88,22 @@ def transition_job(robot_name: str, settings: dict, spec: StepSpec, cyclic_from:
 
 def _part_path(parts: Path, spec: StepSpec) -> Path:
     return parts / f"{spec.name}.h5"
+
+
+def _finished_part(path: Path, settings: OCPSettings) -> Motion | None:
+    """The motion of a part file saved by an earlier run with the same OCP settings, or
+    None.  A damaged part, or one solved with other settings (a rerun with another
+    option), is deleted: its step is solved again."""
+    if not path.exists():
+        return None
+    try:
+        motions, attrs = read_motions(path)
+    except Error:
+        motions, attrs = {}, {}
+    if attrs.get("settings") != json.loads(json.dumps(settings.as_dict())) or len(motions) != 1:
+        path.unlink()
+        return None
+    return next(iter(motions.values()))
 
 
 class _Executor:
@@ -157,11 +174,9 @@ def generate(
     specs = training_specs(lengths, extra_transitions)
     done: dict[StepSpec, Motion] = {}
     for spec in specs:
-        if _part_path(parts, spec).exists():
-            try:
-                done[spec] = read_motion(_part_path(parts, spec))
-            except Error:
-                _part_path(parts, spec).unlink()  # a damaged part is solved again
+        motion = _finished_part(_part_path(parts, spec), settings)
+        if motion is not None:
+            done[spec] = motion
     reused = len(done)
     failed: dict[str, list] = {}
     workers = workers or max(1, min(len(lengths), os.cpu_count() or 1))
@@ -172,7 +187,7 @@ def generate(
         for future in executor.as_completed(list(futures)):
             result: JobResult = executor.result(future)
             for spec, motion in result.motions.items():
-                write_motions(_part_path(parts, spec), {spec.name: motion}, {"content": "part"})
+                write_motions(_part_path(parts, spec), {spec.name: motion}, {"content": "part", "settings": settings.as_dict()})
                 done[spec] = motion
                 bar.update(1)
             for name, attempts in result.failed.items():

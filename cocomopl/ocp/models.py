@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.dynamics import GRAVITY
+from cocomopl.errors import Error
 from cocomopl.robot import Robot
 
 INF = 1e9  # crocoddyl barriers take finite bounds
@@ -65,6 +66,10 @@ class OCPSettings:
     # transfer").  Off by default: it smooths the OC walk's forces but not enough of the
     # generated walk's, and raised its peak force over the 1.3 x weight goal
     w_load_transfer: float = 0.0
+    # rad: the least bend of every knee, at every knot (0: the URDF's limit and the margin
+    # only).  A nearly straight knee makes a leg vertically stiff on a position-controlled
+    # robot (README "Knee flexion"); off by default: it costs torque
+    min_knee_flexion: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -125,15 +130,32 @@ def load_transfer_cost(robot: Robot, state, side: str, force: float, nu: int) ->
     return crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(vertical), residual)
 
 
+def knee_bounds(robot: Robot, min_flexion: float) -> tuple[np.ndarray, np.ndarray]:
+    """The joint position limits (nu,) each, rad, with both knees kept bent by at least
+    ``min_flexion`` from straight (0 rad), on the side their limits allow them to bend to."""
+    lower, upper = robot.q_lower.copy(), robot.q_upper.copy()
+    for roles in robot.leg_roles().values():
+        j = roles["knee"]
+        if abs(lower[j]) <= abs(upper[j]):  # bends towards positive angles
+            lower[j] = max(lower[j], min_flexion)
+        else:
+            upper[j] = min(upper[j], -min_flexion)
+    if np.any(lower > upper):
+        raise Error(f"a knee bend of at least {min_flexion:g} rad is beyond {robot.name}'s knee limits")
+    return lower, upper
+
+
 def joint_limit_cost(robot: Robot, state, nu: int, settings: OCPSettings):
     """Joint position and velocity limits from the URDF, as a barrier on the state.
 
     A penalty barrier tolerates small violations, so it starts inside the limits by a
-    margin; the true limits then hold (``cocomopl dataset check`` verifies it).
+    margin; the true limits then hold (``cocomopl dataset check`` verifies it).  The knees
+    keep ``settings.min_knee_flexion`` (:func:`knee_bounds`).
     """
     q_margin, v_scale = settings.position_limit_margin, settings.velocity_limit_scale
-    lower = np.concatenate([-INF * np.ones(6), robot.q_lower + q_margin, -INF * np.ones(6), -v_scale * robot.v_max])
-    upper = np.concatenate([INF * np.ones(6), robot.q_upper - q_margin, INF * np.ones(6), v_scale * robot.v_max])
+    q_lower, q_upper = knee_bounds(robot, settings.min_knee_flexion)
+    lower = np.concatenate([-INF * np.ones(6), q_lower + q_margin, -INF * np.ones(6), -v_scale * robot.v_max])
+    upper = np.concatenate([INF * np.ones(6), q_upper - q_margin, INF * np.ones(6), v_scale * robot.v_max])
     # the residual from the neutral state is, for revolute joints, the angles and velocities
     residual = crocoddyl.ResidualModelState(state, state.zero(), nu)
     activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(lower, upper, 1.0))
