@@ -89,7 +89,6 @@ def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: 
     """Fit Q and the kernel hyperparameters, starting from the PCA of the signals scaled by
     ``signal_weights`` (I,); return the arrays prediction needs."""
     params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
-    params["log_ell_t"] = np.full(S, np.log(0.1))
     flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
     bounds = _bounds(params, tau)
     scale = float(mask.sum() * X_slots.shape[2] * X_slots.shape[3])  # per datum, for L-BFGS tolerances
