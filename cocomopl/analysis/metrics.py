@@ -295,6 +295,12 @@ def end_balance_margin(robot: Robot, motion: Motion, force_ratio: float = SLIP_F
     return polygon_margin(support_polygon(robot, q, loaded), com[:2])
 
 
+def _touchdowns(motion: Motion) -> np.ndarray:
+    """(sample k, sole j) pairs, (m, 2): sole j is in the air at sample k and in contact at
+    k + 1 (the pre-impact sample of a planned motion, the last airborne sample of a measured one)."""
+    return np.argwhere(motion.contact[1:] & ~motion.contact[:-1])
+
+
 def landing_speeds(robot: Robot, motion: Motion) -> np.ndarray:
     """Speed (m/s) of each sole just before each of its touchdowns.
 
@@ -305,7 +311,7 @@ def landing_speeds(robot: Robot, motion: Motion) -> np.ndarray:
     """
     model, data = robot.model, robot.model.createData()
     speeds = []
-    for k, j in np.argwhere(motion.contact[1:] & ~motion.contact[:-1]):
+    for k, j in _touchdowns(motion):
         pin.forwardKinematics(model, data, motion.q[k], motion.v[k])
         pin.updateFramePlacements(model, data)
         velocity = pin.getFrameVelocity(model, data, robot.foot_frames[SIDES[j]], pin.LOCAL_WORLD_ALIGNED)
@@ -318,7 +324,8 @@ def touchdown_times(motion: Motion) -> list[np.ndarray]:
     touchdowns: the first sample in contact after one in the air (a planned motion's
     post-impact sample, a measured one's first sample with force)."""
     t = motion.t - motion.t[0]
-    return [t[1:][motion.contact[1:, j] & ~motion.contact[:-1, j]] for j in range(2)]
+    pairs = _touchdowns(motion)
+    return [t[pairs[pairs[:, 1] == j, 0] + 1] for j in range(2)]
 
 
 def touchdown_delays(measured: Motion, reference: Motion, window: float = TOUCHDOWN_WINDOW_S) -> np.ndarray:
@@ -332,9 +339,10 @@ def touchdown_delays(measured: Motion, reference: Motion, window: float = TOUCHD
     """
     out = []
     for planned, actual in zip(touchdown_times(reference), touchdown_times(measured)):
-        for t in planned:
-            if len(actual) and np.abs(actual - t).min() <= window:
-                out.append(actual[np.argmin(np.abs(actual - t))] - t)
+        for t in planned if len(actual) else []:
+            nearest = actual[np.argmin(np.abs(actual - t))]
+            if abs(nearest - t) <= window:
+                out.append(nearest - t)
     return np.array(out)
 
 
