@@ -126,8 +126,8 @@ def cmd_dataset_generate(args) -> int:
     if args.load_transfer_weight is not None:
         settings = replace(settings, w_load_transfer=args.load_transfer_weight)
     if args.min_knee_flexion_rad is not None:
-        knee_bounds(robot, args.min_knee_flexion_rad)  # a bend the knees cannot make is refused before solving
         settings = replace(settings, min_knee_flexion=args.min_knee_flexion_rad)
+    knee_bounds(robot, settings.min_knee_flexion)  # a bend the knees cannot make is refused before solving
     out = Path(args.out)
     if out.exists() and out.is_dir():
         raise Error(f"--out {out} is a directory; give a file path such as {out / 'dataset.h5'}")
@@ -482,19 +482,20 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--workers", type=_positive_int, help="local worker processes (default: one per core)")
     gen.add_argument("--scheduler", metavar="ADDRESS", help="run on an existing Dask cluster, e.g. tcp://host:8786")
     gen.add_argument("--dt", type=_positive_float, help="knot spacing in seconds (default: 0.025)")
-    gen.add_argument("--max-iterations", type=_positive_int, help="solver iterations per attempt (default: 200)")
+    gen.add_argument("--max-iterations", type=_positive_int, help="solver iterations per attempt (default: 300)")
     gen.add_argument(
         "--load-transfer-weight",
         type=_non_negative_float,
         metavar="W",
         help="weight (N^-2) pulling each sole's vertical force in double support towards a linear transfer of the "
-        "body weight between touchdown and lift-off (default: 0, off; README 'Load transfer')",
+        "body weight between touchdown and lift-off (default: 0.001; 0 for none; README 'Load transfer')",
     )
     gen.add_argument(
         "--min-knee-flexion-rad",
         type=_non_negative_float,
         metavar="RAD",
-        help="least bend of the knees, in radians, at every knot (default: 0, only the URDF's limits; README 'Knee flexion')",
+        help="least bend of the knees, in radians, at every knot (default: 0.6; 0 for only the URDF's limits; "
+        "README 'Knee flexion')",
     )
     gen.add_argument("--json", action="store_true", help="print one JSON object")
     gen.set_defaults(func=cmd_dataset_generate)

@@ -14,6 +14,7 @@ from cocomopl.cli import main
 from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, default_transitions, parse_transitions_mm, training_specs
 from cocomopl.errors import Error
 from cocomopl.motion_file import read_motions
+from cocomopl.ocp.models import OCPSettings
 
 from conftest import SMALL, SMALL_LENGTH
 
@@ -87,6 +88,7 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path):
     parts = tmp_path / "resume.h5.parts"
     cmd = [sys.executable, "-m", "cocomopl.cli", "dataset", "generate", "--lengths-mm", "200,250",
            "--dt", str(SMALL.dt), "--max-iterations", str(SMALL.max_iterations), "--workers", "1",
+           "--load-transfer-weight", str(SMALL.w_load_transfer), "--min-knee-flexion-rad", str(SMALL.min_knee_flexion),
            "--out", str(out), "--json"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 240
@@ -140,6 +142,16 @@ def test_dask_cluster_path(tmp_path):
     assert attrs["scheduler"] == cluster.scheduler_address
 
 
+def test_generate_help_states_the_default_settings(capsys):
+    with pytest.raises(SystemExit):
+        main(["dataset", "generate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    defaults = OCPSettings()
+    assert f"(default: {defaults.max_iterations})" in text
+    assert f"(default: {defaults.w_load_transfer:g};" in text
+    assert f"(default: {defaults.min_knee_flexion:g};" in text
+
+
 def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
     """The dataset that ships in the package: made by the project's command with the default
     training set (32 OCPs, 64 motions with their mirror images), every check passing."""
@@ -150,5 +162,7 @@ def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
     assert info["all_converged"] is True
     assert info["command"].startswith("cocomopl dataset generate")
     assert info["versions"]["crocoddyl"] == "3.2.1" and info["created"]
+    # solved with the default settings, so plain `cocomopl dataset generate` makes it again
+    assert info["settings"] == json.loads(json.dumps(OCPSettings().as_dict()))
     assert main(["dataset", "check", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["ok"] is True

@@ -39,7 +39,8 @@ class OCPSettings:
     ss_bounds: tuple[float, float] = (0.5, 1.2)
     start_ds_duration: float = 0.40
     rest_duration: float = 0.40
-    max_iterations: int = 200
+    # 300: the load transfer below makes some steps need more than 200 (stop_200: about 220)
+    max_iterations: int = 300
     tolerance: float = 1e-3  # relative cost change over 25 iterations that counts as converged
     friction: float = 0.7
     zmp_margin: float = 0.02
@@ -63,13 +64,14 @@ class OCPSettings:
     w_swing_guide: float = 1e3
     # on each sole's vertical force in double support against a linear transfer of the
     # weight from the sole that lifts next to the one that landed, N^-2 (README "Load
-    # transfer").  Off by default: it smooths the OC walk's forces but not enough of the
-    # generated walk's, and raised its peak force over the 1.3 x weight goal
-    w_load_transfer: float = 0.0
+    # transfer"; 0 switches it off).  On straight knees it raised the generated walk's peak
+    # force over 1.3 x weight; with the knees bent it makes the executed forces smoother
+    w_load_transfer: float = 1e-3
     # rad: the least bend of every knee, at every knot (0: the URDF's limit and the margin
     # only).  A nearly straight knee makes a leg vertically stiff on a position-controlled
-    # robot (README "Knee flexion"); off by default: it costs torque
-    min_knee_flexion: float = 0.0
+    # robot, and the double support then trades load between the soles (README "Knee
+    # flexion"); the bend costs torque
+    min_knee_flexion: float = 0.6
 
     def as_dict(self) -> dict:
         return asdict(self)
