@@ -179,12 +179,19 @@ def multibody_zmp(robot: Robot, t, q, contact, impacts) -> np.ndarray:
     return zmp_from_wrenches(sole_placements(robot, q), wrenches)
 
 
+def _zmp_samples(n: int, impacts: np.ndarray) -> np.ndarray:
+    """(n,) mask of the samples that carry a ZMP of their own: all but the pre-impact
+    samples ``impacts``, which repeat their interval's wrench at the touchdown's instant."""
+    keep = np.ones(n, dtype=bool)
+    keep[impacts] = False
+    return keep
+
+
 def rms_zmp_error(zmp: np.ndarray, zmp_ref: np.ndarray, impacts: np.ndarray) -> float:
     """RMS (m), over the samples and both horizontal axes, of ``zmp - zmp_ref`` (n, 3),
-    leaving out the pre-impact samples ``impacts``: they repeat their interval's wrench, so
-    they are not ZMP samples.  NaN samples (no contact force) are skipped."""
-    keep = np.ones(len(zmp), dtype=bool)
-    keep[impacts] = False
+    leaving out the pre-impact samples ``impacts`` (not ZMP samples of their own).  NaN
+    samples (no contact force) are skipped."""
+    keep = _zmp_samples(len(zmp), impacts)
     return float(np.sqrt(np.nanmean((zmp[keep, :2] - zmp_ref[keep, :2]) ** 2)))
 
 
@@ -218,8 +225,7 @@ def dynamics_filter(
     legs = leg_joints(robot)
     placements = [[robot.frame_placement(qk, robot.foot_frames[s]) for s in SIDES] for qk in q]
     targets = swing_targets(t, placements, ground)
-    keep = np.ones(len(t), dtype=bool)
-    keep[impacts] = False  # the correction is smooth: one value per instant
+    keep = _zmp_samples(len(t), impacts)  # the correction is smooth: one value per instant
     height = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in q[:: max(len(q) // 20, 1)]]))
     shift = np.zeros((len(t), 2))
     errors, best = [], None
