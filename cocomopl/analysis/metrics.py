@@ -339,7 +339,9 @@ def touchdown_delays(measured: Motion, reference: Motion, window: float = TOUCHD
     """
     out = []
     for planned, actual in zip(touchdown_times(reference), touchdown_times(measured)):
-        for t in planned if len(actual) else []:
+        if len(actual) == 0:  # this sole never landed
+            continue
+        for t in planned:
             nearest = actual[np.argmin(np.abs(actual - t))]
             if abs(nearest - t) <= window:
                 out.append(nearest - t)
