@@ -29,8 +29,6 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 import cocomopl  # noqa: F401  (one OpenMP thread per process)
 
-M_GEN = [0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15]
-
 
 def median_time(fn, repeats: int) -> float:
     """Median wall time of ``fn()`` in seconds over ``repeats`` calls (after one warm-up)."""
@@ -46,10 +44,11 @@ def median_time(fn, repeats: int) -> float:
 def main() -> int:
     from bench_ocp import cocomopl_cyclic
 
-    from cocomopl.cli import BUNDLED_DATASET, BUNDLED_MODEL
+    from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
+    from cocomopl.gait import M_GEN, sequence_specs
     from cocomopl.primitives.model_file import load_model
     from cocomopl.robot import Robot
-    from cocomopl.synthesis.sequence import generate_steps, sequence_specs
+    from cocomopl.synthesis.step_chain import generate_steps
     from cocomopl.synthesis.world import place_steps
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -59,7 +58,7 @@ def main() -> int:
     args = parser.parse_args()
 
     model = load_model(args.model).prepare()
-    specs = sequence_specs(M_GEN)
+    specs = sequence_specs(list(M_GEN))
     chain = generate_steps(model, specs)
     step_s = median_time(lambda: model.predict(specs[4], start=chain[3].values[-1]), 2000)
     sequence_s = median_time(lambda: generate_steps(model, specs), 300)

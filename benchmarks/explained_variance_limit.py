@@ -30,11 +30,12 @@ import json
 
 import numpy as np
 
+from cocomopl.data import BUNDLED_DATASET
 from cocomopl.errors import Error
-from cocomopl.primitives.model import signal_groups
+from cocomopl.primitives.estimator import signal_groups
 from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample
 
-DATASET = "cocomopl/data/dataset.h5"
+DATASET = BUNDLED_DATASET
 WEIGHTS = np.geomspace(1.0, 1e4, 17)  # squared weight of the ZMP and pelvis groups
 
 

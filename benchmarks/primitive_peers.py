@@ -42,20 +42,19 @@ import json
 import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.spatial import Delaunay, QhullError
 
-import cocomopl  # also sets one OpenMP thread per process, for the fitting processes too
+from cocomopl.data import BUNDLED_DATASET
 from cocomopl.motion import StepSpec
+from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.evaluation import (
     evaluate_lolo,
     fit_folds,
     length_mm,
     lolo_folds,
 )
-from cocomopl.primitives.model import MovementPrimitives
 from cocomopl.primitives.training import (
     TrainingSteps,
     load_training_steps,
@@ -65,7 +64,7 @@ from cocomopl.primitives.training import (
     step_type,
 )
 
-DATASET = Path(cocomopl.__file__).parent / "data" / "dataset.h5"
+DATASET = BUNDLED_DATASET
 N_GRID = 100  # the movement primitives' default grid, so that all methods compare on the same points
 
 

@@ -27,18 +27,18 @@ import numpy as np
 from tqdm import tqdm
 
 from cocomopl.analysis.feasibility import AT_LEAST
-from cocomopl.cli import BUNDLED_MODEL
+from cocomopl.data import BUNDLED_MODEL
 from cocomopl.errors import Error
 from cocomopl.primitives.model_file import load_model
-from cocomopl.sim.model import CONTACT_TIME_CONSTANT, check_contact_time_constant
+from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 
 def run_one(lengths_mm: list[float], contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
     from cocomopl.analysis.feasibility import check_motion, tolerances, violations
-    from cocomopl.ocp.models import OCPSettings
+    from cocomopl.ocp.action_models import OCPSettings
     from cocomopl.pipeline import generate_walk
-    from cocomopl.sim.model import build_sim_model
+    from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
     walk = generate_walk([x / 1000 for x in lengths_mm], model)

@@ -23,11 +23,11 @@ import cocomopl  # noqa: F401  (one OpenMP thread per process)
 
 def main() -> int:
     from cocomopl.analysis.plots import pyplot, save_figure
-    from cocomopl.cli import BUNDLED_DATASET
+    from cocomopl.data import BUNDLED_DATASET
     from cocomopl.dataset.generate import phase_durations
     from cocomopl.motion import StepSpec
     from cocomopl.motion_file import read_motion
-    from cocomopl.ocp.models import OCPSettings
+    from cocomopl.ocp.action_models import OCPSettings
     from cocomopl.ocp.solve import solve_step, to_motion
     from cocomopl.robot import Robot
 

@@ -15,4 +15,37 @@ from cocomopl.errors import Error  # noqa: E402
 
 __version__ = "0.1.0"
 
-__all__ = ["Error", "__version__"]
+# Public names, imported on first use: ``import cocomopl`` stays light (the CLI starts fast)
+# and the fitting code's JAX is loaded only by those who fit.
+_EXPORTS = {
+    "BUNDLED_DATASET": "cocomopl.data",
+    "BUNDLED_MODEL": "cocomopl.data",
+    "Motion": "cocomopl.motion",
+    "StepSpec": "cocomopl.motion",
+    "Robot": "cocomopl.robot",
+    "MovementPrimitives": "cocomopl.primitives.estimator",
+    "load_training_steps": "cocomopl.primitives.training",
+    "load_model": "cocomopl.primitives.model_file",
+    "save_model": "cocomopl.primitives.model_file",
+    "read_motion": "cocomopl.motion_file",
+    "read_motions": "cocomopl.motion_file",
+    "write_motions": "cocomopl.motion_file",
+    "generate_walk": "cocomopl.pipeline",
+    "simulate_walk": "cocomopl.pipeline",
+}
+
+__all__ = ["Error", "__version__", *_EXPORTS]
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'cocomopl' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

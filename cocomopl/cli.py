@@ -66,7 +66,7 @@ def _checked(check, value: float) -> float:
 
 
 def _contact_time_constant(text: str) -> float:
-    from cocomopl.sim.model import check_contact_time_constant
+    from cocomopl.sim.mujoco_model import check_contact_time_constant
 
     return _checked(check_contact_time_constant, _positive_float(text))
 
@@ -101,10 +101,9 @@ def cmd_dataset_generate(args) -> int:
     from dataclasses import replace
 
     from cocomopl.dataset.generate import generate
-    from cocomopl.dataset.plan import parse_lengths_mm, parse_transitions_mm
-    from cocomopl.ocp.models import OCPSettings, knee_bounds
-    from cocomopl.ocp.posture import double_support_posture
-    from cocomopl.ocp.problems import foot_separation
+    from cocomopl.gait import foot_separation, parse_lengths_mm, parse_transitions_mm
+    from cocomopl.kinematics import double_support_posture
+    from cocomopl.ocp.action_models import OCPSettings, knee_bounds
     from cocomopl.robot import Robot
 
     lengths = parse_lengths_mm(args.lengths_mm)
@@ -289,9 +288,9 @@ def cmd_model_info(args) -> int:
 
 
 def cmd_generate(args) -> int:
+    from cocomopl.gait import parse_sequence_mm
     from cocomopl.motion_file import writable_folder, write_motions
     from cocomopl.pipeline import generate_walk
-    from cocomopl.synthesis.sequence import parse_sequence_mm
 
     lengths = parse_sequence_mm(args.lengths_mm)
     out = Path(args.out)
@@ -390,8 +389,8 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_walk(args) -> int:
+    from cocomopl.gait import parse_sequence_mm
     from cocomopl.pipeline import walk_report
-    from cocomopl.synthesis.sequence import parse_sequence_mm
 
     lengths = parse_sequence_mm(args.lengths_mm)
     payload = walk_report(lengths, Path(args.out), _model_path(args.model), stabilizer=not args.no_stabilizer,

@@ -11,15 +11,12 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cocomopl.gait import M_GEN, M_OPT, sequence_specs
 from cocomopl.motion import Motion
-from cocomopl.primitives.model import PredictedStep
+from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.primitives.model_file import load_model
 from cocomopl.robot import Robot
-from cocomopl.synthesis.sequence import (
-    OutOfSupportWarning,
-    generate_steps,
-    sequence_specs,
-)
+from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
 from cocomopl.synthesis.world import place_steps
 
 # m: the dynamics filter's RMS ZMP error above which a walk is flagged.  On 50 random walks
@@ -91,7 +88,7 @@ def simulate_walk(
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
     """
     from cocomopl.analysis.metrics import summary
-    from cocomopl.sim.model import build_sim_model
+    from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
 
@@ -158,8 +155,6 @@ def walk_report(
     return payload
 
 
-M_GEN = (0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15)  # the paper's generated walk
-M_OPT = (0.15, 0.15, 0.25, 0.35, 0.40, 0.35, 0.25, 0.15, 0.15)  # its OC counterpart (400 for 390)
 
 
 def reproduce_report(
@@ -183,12 +178,11 @@ def reproduce_report(
     import numpy as np
 
     from cocomopl.analysis.metrics import force_variation, mean_torque, total_force_variation
-    from cocomopl.dynamics import GRAVITY
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.baselines.kajita import kajita_walk
-    from cocomopl.motion_file import writable_folder, write_json, write_motions
-    from cocomopl.motion_file import read_motions
-    from cocomopl.ocp.sequence import solve_sequence
+    from cocomopl.dynamics import GRAVITY
+    from cocomopl.motion_file import read_motions, writable_folder, write_json, write_motions
+    from cocomopl.ocp.chained_steps import solve_sequence
 
     started = time.perf_counter()
     out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from cocomopl.ocp.models import OCPSettings
+from cocomopl.ocp.action_models import OCPSettings
 from cocomopl.robot import Robot
 
 SMALL = OCPSettings(

@@ -11,10 +11,11 @@ import h5py
 import pytest
 
 from cocomopl.cli import main
-from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, default_transitions, parse_transitions_mm, training_specs
+from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, default_transitions, training_specs
 from cocomopl.errors import Error
+from cocomopl.gait import parse_transitions_mm
 from cocomopl.motion_file import read_motions
-from cocomopl.ocp.models import OCPSettings
+from cocomopl.ocp.action_models import OCPSettings
 
 from conftest import SMALL, SMALL_LENGTH
 

@@ -4,7 +4,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cocomopl.synthesis.dynamics_filter import GRAVITY, leg_joints, place_legs, rms_zmp_error, zmp_correction
+from cocomopl.kinematics import leg_joints, place_legs
+from cocomopl.synthesis.dynamics_filter import GRAVITY, rms_zmp_error, zmp_correction
 
 
 def test_correction_cancels_a_cart_table_zmp_error():
@@ -37,7 +38,8 @@ def test_legs_reach_their_sole_targets(robot):
 
 
 def test_under_the_filters_height_weight_a_far_footstep_is_reached(robot):
-    from cocomopl.synthesis.dynamics_filter import FILTER_HEIGHT_WEIGHT, HEIGHT_WEIGHT, IK_REACHED
+    from cocomopl.kinematics import HEIGHT_WEIGHT, IK_REACHED
+    from cocomopl.synthesis.dynamics_filter import FILTER_HEIGHT_WEIGHT
 
     # the right sole asked 0.45 m forward of the left: only a sinking pelvis gets it there
     q = robot.q_ref.copy()

@@ -6,15 +6,17 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from cocomopl.data import BUNDLED_DATASET
 from cocomopl.dynamics import sole_placements
 from cocomopl.errors import Error
 from cocomopl.export.safety import FOOT_CLEARANCE, check_safe, safety_report
 from cocomopl.export.seqplay import export_motion
+from cocomopl.kinematics import double_support_posture
 from cocomopl.motion_file import read_motion, write_motions
-from cocomopl.ocp.posture import double_support_posture
+
 from test_cli_errors import assert_one_line_error, run_cli
 
-DATASET = "cocomopl/data/dataset.h5"
+DATASET = BUNDLED_DATASET
 
 
 @pytest.fixture(scope="module")

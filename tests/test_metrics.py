@@ -7,7 +7,6 @@ import re
 import shutil
 import subprocess
 from html.parser import HTMLParser
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -16,11 +15,12 @@ import pytest
 from cocomopl.analysis import metrics
 from cocomopl.analysis.report_plots import plot_comparison
 from cocomopl.analysis.viewer import skeleton, write_html_viewer
+from cocomopl.data import BUNDLED_DATASET
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.motion_file import read_motion
 
-DATASET = Path(__file__).parents[1] / "cocomopl" / "data" / "dataset.h5"
+DATASET = BUNDLED_DATASET
 
 
 def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=None) -> Motion:

@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import cocomopl
+from cocomopl.data import BUNDLED_DATASET
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives import model_file
-from cocomopl.primitives.model import MovementPrimitives
+from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.model_file import (
     FORMAT_VERSION,
     REQUIRED,
@@ -19,7 +19,7 @@ from cocomopl.primitives.model_file import (
     save_model,
 )
 
-DATASET = Path(cocomopl.__file__).parent / "data" / "dataset.h5"
+DATASET = BUNDLED_DATASET
 SPEC = StepSpec("cyclic", 0.25, 0.25, "left")
 METADATA = {"command": "pytest", "versions": {"numpy": np.__version__}, "selection": [[3, "rbf", 0.9]]}
 

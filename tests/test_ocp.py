@@ -172,7 +172,7 @@ def test_knee_bounds_bend_each_knee_the_way_its_limits_allow(robot):
     gets the bound on the other side, and a bend beyond the limits is refused."""
     import copy
 
-    from cocomopl.ocp.models import knee_bounds
+    from cocomopl.ocp.action_models import knee_bounds
 
     knees = [roles["knee"] for roles in robot.leg_roles().values()]
     lower, upper = knee_bounds(robot, 0.4)

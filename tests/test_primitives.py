@@ -6,21 +6,29 @@ once on the bundled dataset; the tests check properties, not accuracy.
 
 import json
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
+
+from cocomopl.data import BUNDLED_DATASET
+from cocomopl.errors import Error
+from cocomopl.gait import M_GEN, parse_sequence_mm, sequence_specs
+from cocomopl.motion import StepSpec
+from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.primitives.training import (
+    learned_parts,
+    load_training_steps,
+    phase_templates,
+    resample,
+    split_phases,
+    step_type,
+)
+from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
+
 from test_cli_errors import assert_one_line_error, run_cli
 
-import cocomopl
-from cocomopl.errors import Error
-from cocomopl.motion import StepSpec
-from cocomopl.primitives.model import MovementPrimitives
-from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample, split_phases, step_type
-from cocomopl.synthesis.sequence import OutOfSupportWarning, generate_steps, parse_sequence_mm, sequence_specs
+DATASET = BUNDLED_DATASET
 
-DATASET = Path(cocomopl.__file__).parent / "data" / "dataset.h5"
-M_GEN = [0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15]
 
 
 @pytest.fixture(scope="module")
@@ -82,7 +90,7 @@ def test_gradient_matches_finite_differences(steps):
     from jax.flatten_util import ravel_pytree
 
     from cocomopl.primitives.bound import free_energy
-    from cocomopl.primitives.model import _SlotLayout
+    from cocomopl.primitives.estimator import _SlotLayout
     from cocomopl.primitives.optimise import initial_parameters
 
     few = steps.subset(range(0, len(steps), 4))
@@ -109,7 +117,7 @@ def test_fit_reports_bound_and_explained_variance(model, steps):
     assert all(0.8 < v <= 1.0 for v in model.explained_variance_.values())
     # predicting the learned trajectories (the steps, stops in their two parts) from their
     # specs reproduces the fit
-    from cocomopl.primitives.model import explained_variance
+    from cocomopl.primitives.estimator import explained_variance
 
     parts, types = learned_parts(steps)
     X = resample(parts, phase_templates(parts, types), model.state_["tau"], types)
@@ -152,7 +160,7 @@ def test_a_stop_is_predicted_in_its_two_learned_parts_and_joined_at_its_middle_t
 
 
 def test_pca_weights_give_each_signal_group_the_same_total_variance(steps):
-    from cocomopl.primitives.model import pca_signal_weights, signal_groups
+    from cocomopl.primitives.estimator import pca_signal_weights, signal_groups
 
     X = resample(steps, phase_templates(steps), np.linspace(0, 1, 20))
     weights = pca_signal_weights(X, steps.signal_names)
@@ -162,7 +170,7 @@ def test_pca_weights_give_each_signal_group_the_same_total_variance(steps):
 
 
 def test_conditioning_makes_the_sequence_continuous(model):
-    specs = sequence_specs(M_GEN)
+    specs = sequence_specs(list(M_GEN))
     chained = generate_steps(model, specs)
     free = [model.predict(s) for s in specs]
     joints = slice(0, 30)
@@ -173,7 +181,7 @@ def test_conditioning_makes_the_sequence_continuous(model):
 
 
 def test_sequence_specs_alternate_feet_and_choose_kinds():
-    specs = sequence_specs(M_GEN)
+    specs = sequence_specs(list(M_GEN))
     assert [s.kind for s in specs] == ["start", "cyclic"] + ["transition"] * 6 + ["stop"]
     assert [s.swing_side for s in specs[:3]] == ["left", "right", "left"]
     assert (specs[3].start_length, specs[3].end_length) == (0.25, 0.35)
@@ -209,7 +217,7 @@ def test_unknown_step_type_is_an_error(steps):
 
 def test_placed_walk_is_a_consistent_motion(robot):
     from cocomopl.analysis.feasibility import check_motion
-    from cocomopl.cli import BUNDLED_MODEL
+    from cocomopl.data import BUNDLED_MODEL
     from cocomopl.dynamics import sole_placements
     from cocomopl.primitives.model_file import load_model
     from cocomopl.synthesis.world import place_steps

@@ -5,9 +5,10 @@ import pytest
 
 from cocomopl.analysis.feasibility import check_motion
 from cocomopl.dynamics import sole_placements
+from cocomopl.gait import sequence_specs
 from cocomopl.motion_file import read_motions
-from cocomopl.ocp.sequence import solve_sequence
-from cocomopl.synthesis.sequence import sequence_specs
+from cocomopl.ocp.chained_steps import solve_sequence
+
 from conftest import SMALL, SMALL_LENGTH
 
 

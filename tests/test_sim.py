@@ -5,15 +5,16 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from cocomopl.data import BUNDLED_DATASET
+from cocomopl.gait import foot_separation
+from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Motion
 from cocomopl.motion_file import read_motion, write_motions
-from cocomopl.ocp.posture import double_support_posture
-from cocomopl.ocp.problems import foot_separation
-from cocomopl.sim.model import build_sim_model
+from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.rollout import _placed_on_floor, simulate
 from cocomopl.sim.stabilizer import Stabilizer, _leg_maps
 
-DATASET = "cocomopl/data/dataset.h5"
+DATASET = BUNDLED_DATASET
 
 
 @pytest.fixture(scope="module")
@@ -170,9 +171,9 @@ def test_dcm_feedback_resists_a_push(robot, sim):
 
 
 def test_reference_filter_keeps_the_gait_and_removes_the_knot_rate(robot):
-    from test_metrics import synthetic
-
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, _reference_joints
+
+    from test_metrics import synthetic
 
     # 25 ms knots of a 1 Hz swing with a 40 Hz zigzag on top, standing still at both ends
     t = np.arange(0.0, 4.0 + 1e-9, 0.025)

@@ -20,10 +20,10 @@ from scipy.interpolate import CubicHermiteSpline
 from cocomopl.baselines.preview_control import PreviewController
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements
 from cocomopl.errors import Error
+from cocomopl.gait import footsteps, ground_position, phase_plan
+from cocomopl.kinematics import leg_joints, place_legs
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
-from cocomopl.synthesis.dynamics_filter import leg_joints, place_legs
-from cocomopl.synthesis.world import footsteps, ground_position, phase_plan
 
 STANDING_ITERATIONS = (
     10  # pelvis shifts to bring the CoM of the first posture above its target
@@ -299,7 +299,7 @@ def _whole_body(
 
     As Kajita's pattern generator: the pelvis keeps the orientation and height of ``q`` and
     the upper body its posture; per sample the pelvis slides horizontally by the CoM error
-    and the legs follow the soles (:func:`~cocomopl.synthesis.dynamics_filter.place_legs`),
+    and the legs follow the soles (:func:`~cocomopl.kinematics.place_legs`),
     warm-started from the sample before.
     """
     model, data = robot.model, robot.model.createData()
@@ -398,7 +398,7 @@ def kajita_walk(
     Parameters
     ----------
     robot : the robot
-    specs : the walk's steps, e.g. :func:`cocomopl.synthesis.sequence.sequence_specs`
+    specs : the walk's steps, e.g. :func:`cocomopl.synthesis.step_chain.sequence_specs`
     durations : per step, its phase durations (s), as for :func:`support_phases`; to match a
         generated walk pass ``[np.diff(s.phase_edges) for s in steps]``; default
         :func:`default_durations`

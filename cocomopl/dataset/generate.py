@@ -26,10 +26,11 @@ from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.motion_file import read_motions, writable_folder, write_motions
-from cocomopl.ocp.models import OCPSettings
-from cocomopl.ocp.solve import length_steps, solve_length, solve_with_retries, to_motion
+from cocomopl.ocp.action_models import OCPSettings
+from cocomopl.ocp.solve import length_steps, phase_durations, solve_length, solve_transition, to_motion
 from cocomopl.provenance import versions
 from cocomopl.robot import Robot, mirror_motion
+
 
 @dataclass
 class JobResult:
@@ -63,27 +64,17 @@ def length_job(
     return result
 
 
-def phase_durations(cyclic: Motion) -> dict:
-    """The double- and single-support durations (s) of a solved cyclic step."""
-    (_, a, b), (_, c, d) = cyclic.phases[:2]
-    return {"ds_duration": float(cyclic.t[b] - cyclic.t[a]), "ss_duration": float(cyclic.t[d] - cyclic.t[c])}
 
 
-def transition_job(robot_name: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion) -> JobResult:
-    """A transition step between the start states of two cyclic steps, warm-started from
-    the cyclic step of its start length."""
-    robot = Robot(robot_name)
-    # the transition keeps the timing of the gait it leaves, whose cyclic step warm-starts it
-    opts = replace(OCPSettings(**settings), **phase_durations(cyclic_from))
-    states = {
-        spec.start_length: np.concatenate([cyclic_from.q[0], cyclic_from.v[0]]),
-        spec.end_length: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
-    }
-    warm = list(np.hstack([cyclic_from.q, cyclic_from.v]))
-    solution, attempts = solve_with_retries(robot, spec, states, opts, [warm, "kinematic", "static"])
-    if solution is None:
+
+
+def transition_job(robot_source: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion) -> JobResult:
+    """A transition step (runs in a worker: plain data in and out); see
+    :func:`~cocomopl.ocp.solve.solve_transition`."""
+    motion, attempts = solve_transition(Robot(robot_source), OCPSettings(**settings), spec, cyclic_from, cyclic_to)
+    if motion is None:
         return JobResult(failed={spec.name: attempts})
-    return JobResult(motions={spec: to_motion(robot, solution, opts)})
+    return JobResult(motions={spec: motion})
 
 
 def _part_path(parts: Path, spec: StepSpec) -> Path:

@@ -14,12 +14,11 @@ import crocoddyl
 import numpy as np
 import pinocchio as pin
 
+from cocomopl.gait import OTHER_SIDE
+from cocomopl.kinematics import inverse_kinematics
 from cocomopl.motion import StepSpec
-from cocomopl.ocp.models import OCPSettings, contact_knot, impulse_knot
-from cocomopl.ocp.posture import inverse_kinematics
+from cocomopl.ocp.action_models import OCPSettings, contact_knot, impulse_knot
 from cocomopl.robot import Robot, mirror_state
-
-OTHER = {"left": "right", "right": "left"}
 
 
 @dataclass
@@ -47,11 +46,6 @@ class StepPlan:
     x_target: np.ndarray | None = None
 
 
-def foot_separation(robot: Robot) -> float:
-    """Lateral distance between the soles in the reference posture (m)."""
-    left = robot.frame_placement(robot.q_ref, robot.foot_frames["left"]).translation
-    right = robot.frame_placement(robot.q_ref, robot.foot_frames["right"]).translation
-    return round(float(left[1] - right[1]), 4)
 
 
 def translate_state(robot: Robot, x: np.ndarray, dx: float, dy: float) -> np.ndarray:
@@ -102,10 +96,10 @@ def walk_phases(
         phases.append(Phase("ss", _knots(ss, dt), swing, (feet[swing], y), (to_x, y)))
         phases.append(Phase("impact", swing=swing, swing_to=(to_x, y)))
         feet[swing] = to_x
-        swing = OTHER[swing]
+        swing = OTHER_SIDE[swing]
 
     for spec in specs:
-        stance_x = feet[OTHER[swing]]
+        stance_x = feet[OTHER_SIDE[swing]]
         if spec.kind == "start":
             step(stance_x + spec.end_length, max(ds, settings.start_ds_duration))
         elif spec.kind in ("cyclic", "transition"):
@@ -113,7 +107,7 @@ def walk_phases(
         elif spec.kind == "stop":
             # one more step of the same length, then the other foot closes up beside it
             step(stance_x + spec.start_length, ds)
-            step(feet[OTHER[swing]], ds)
+            step(feet[OTHER_SIDE[swing]], ds)
             phases.append(Phase("ds", _knots(settings.rest_duration, dt)))
         else:
             raise ValueError(f"unknown step kind {spec.kind!r}")
@@ -156,7 +150,7 @@ def load_shares(phases: list[Phase], i: int, from_rest: bool) -> list[dict[str, 
     after = phases[i + 1] if i + 1 < len(phases) else None
     if (from_rest and before is None) or after is None or after.kind != "ss":
         return [None] * phase.knots
-    landed, lifts = OTHER[after.swing], after.swing
+    landed, lifts = OTHER_SIDE[after.swing], after.swing
     return [{landed: k / phase.knots, lifts: 1.0 - k / phase.knots} for k in range(phase.knots)]
 
 
@@ -175,7 +169,7 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
                 for shares in load_shares(plan.phases, i, plan.spec.kind == "start")
             ]
         elif phase.kind == "ss":
-            stance = {OTHER[phase.swing]: feet[OTHER[phase.swing]]}
+            stance = {OTHER_SIDE[phase.swing]: feet[OTHER_SIDE[phase.swing]]}
             for k in range(phase.knots):
                 s = (k + 1) / phase.knots
                 in_air = 0.25 <= s <= 0.75
@@ -225,7 +219,7 @@ def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: O
             if swing is None:
                 goal = 0.5 * (feet["left"][:2] + feet["right"][:2])
             else:
-                stance = OTHER[swing]
+                stance = OTHER_SIDE[swing]
                 goal = feet[stance][:2] + np.array([0.0, inward[stance]])
             for k in range(phase.knots):
                 c = com + (goal - com) * (k + 1) / phase.knots

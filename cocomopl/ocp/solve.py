@@ -16,23 +16,22 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.analysis.feasibility import check_motion, tolerances, violations
-from cocomopl.errors import Error
 from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
+from cocomopl.errors import Error
+from cocomopl.gait import OTHER_SIDE, foot_separation
+from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.ocp.models import OCPSettings
-from cocomopl.ocp.posture import double_support_posture
-from cocomopl.ocp.torque_rate import with_torque_rate
+from cocomopl.ocp.action_models import OCPSettings
 from cocomopl.ocp.problems import (
-    OTHER,
     StepPlan,
     build_problem,
-    foot_separation,
     initial_guess,
     landing_point,
     next_step_state,
     translate_state,
     walk_phases,
 )
+from cocomopl.ocp.torque_rate import with_torque_rate
 from cocomopl.robot import Robot, mirror_state
 
 CHUNK = 25  # solver iterations between convergence tests
@@ -171,7 +170,7 @@ def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
             ds_seen += 1
             if ds_seen == wanted[0]:
                 first = k
-                stance = OTHER[next(p.swing for p in phases[idx:] if p.kind == "ss")]
+                stance = OTHER_SIDE[next(p.swing for p in phases[idx:] if p.kind == "ss")]
                 origin = feet[stance].copy()
             if ds_seen == wanted[-1] + 1:
                 break
@@ -416,3 +415,28 @@ __all__ = [
     "step_plan",
     "to_motion",
 ]
+
+
+def phase_durations(cyclic: Motion) -> dict:
+    """The double- and single-support durations (s) of a solved cyclic step."""
+    (_, a, b), (_, c, d) = cyclic.phases[:2]
+    return {"ds_duration": float(cyclic.t[b] - cyclic.t[a]), "ss_duration": float(cyclic.t[d] - cyclic.t[c])}
+
+
+def solve_transition(
+    robot: Robot, settings: OCPSettings, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion
+) -> tuple[Motion | None, list]:
+    """A transition step between the start states of two cyclic steps, warm-started from
+    the cyclic step of its start length.
+
+    Returns the motion (None if no attempt converged) and the attempts made.
+    """
+    # the transition keeps the timing of the gait it leaves, whose cyclic step warm-starts it
+    opts = replace(settings, **phase_durations(cyclic_from))
+    states = {
+        spec.start_length: np.concatenate([cyclic_from.q[0], cyclic_from.v[0]]),
+        spec.end_length: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
+    }
+    warm = list(np.hstack([cyclic_from.q, cyclic_from.v]))
+    solution, attempts = solve_with_retries(robot, spec, states, opts, [warm, "kinematic", "static"])
+    return (None if solution is None else to_motion(robot, solution, opts)), attempts

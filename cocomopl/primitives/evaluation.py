@@ -28,7 +28,7 @@ from typing import Protocol
 import numpy as np
 
 from cocomopl.motion import StepSpec
-from cocomopl.primitives.model import signal_groups
+from cocomopl.primitives.estimator import signal_groups
 from cocomopl.primitives.training import TrainingSteps, step_type
 
 RMS_METRICS = ("joints_rms_rad", "zmp_xy_rms_m", "zmp_rms_m", "pelvis_rms_rad")

@@ -21,7 +21,7 @@ import numpy as np
 
 from cocomopl.errors import Error
 from cocomopl.motion_file import atomic_path
-from cocomopl.primitives.model import MovementPrimitives
+from cocomopl.primitives.estimator import MovementPrimitives
 
 FORMAT = "cocomopl-model"
 # 2: stops are learned in two parts, step types ``stop_<side>_part1`` and ``_part2``

@@ -9,9 +9,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from tqdm import tqdm
 
 from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_PRIMITIVES
-from cocomopl.primitives.model import MovementPrimitives
+from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.training import TrainingSteps
-
 
 
 def _fit(steps: TrainingSteps, n_primitives: int, kernel: str, max_iterations: int) -> MovementPrimitives:

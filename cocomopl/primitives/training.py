@@ -20,7 +20,6 @@ from cocomopl.motion import StepSpec
 from cocomopl.motion_file import open_checked
 
 
-
 def step_type(spec: StepSpec) -> str:
     """The discrete part of the step parameters: kind and swinging foot, e.g. ``cyclic_left``.
 

@@ -23,11 +23,11 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 from tqdm import tqdm
 
+from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
 from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
-from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
-from cocomopl.sim.model import TIMESTEP, SimModel
+from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
 from cocomopl.sim.stabilizer import Stabilizer
 
 RECORD_DT = 0.005  # s between recorded samples
@@ -105,7 +105,7 @@ def simulate(
 
     Parameters
     ----------
-    sim : the compiled model (:func:`cocomopl.sim.model.build_sim_model`)
+    sim : the compiled model (:func:`cocomopl.sim.mujoco_model.build_sim_model`)
     motion : the reference, world frame, starting at rest on the floor
     stabilizer : add the stabilizer's corrections to the commanded joint angles
     settle : seconds standing in the first posture before the motion starts

@@ -11,7 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 from cocomopl.motion_file import atomic_path
-from cocomopl.sim.model import SimModel
+from cocomopl.sim.mujoco_model import SimModel
 
 
 def render_video(

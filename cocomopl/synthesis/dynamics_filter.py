@@ -31,6 +31,7 @@ from cocomopl.dynamics import (
     sole_placements,
     zmp_from_wrenches,
 )
+from cocomopl.kinematics import IK_REACHED, leg_joints, place_legs
 from cocomopl.robot import Robot
 
 PASSES = 6
@@ -39,68 +40,16 @@ RELAXATION = 0.5  # fraction of the cart-table correction applied per pass: a fu
 # enough that the ZMP error dominates, large enough to pick the bounded cart-table solution
 SIZE_WEIGHT = 1e-3
 REST_WEIGHT = 1e3
-IK_ITERATIONS = 20
-IK_TOLERANCE = 1e-7
-IK_REACHED = 1e-5  # m: a sole this close to its footstep is on it  # m and rad of sole error
-IK_DAMPING = 1e-8
-# m of sole error traded for 1 m of pelvis height change in the legs' inverse kinematics.
-# By default the height moves only when it must, as a pattern generator that prescribes
-# the CoM height wants (the Kajita baseline).  The filter lets it move ten times more
-# readily, so the pelvis sinks rather than a leg stretching to its knee stop to reach a far
-# footstep: at 1e-2 its passes diverged after the fourth and M_gen's plan kept straight
-# knees that then bent at 1.15 x their velocity limit; at 1e-3 they converge monotonically
-# (README, "Known limitations (stage 2)")
-HEIGHT_WEIGHT = 1e-2
+# m of sole error per m of pelvis height in the filter's leg placement: ten times more
+# readily than kinematics.HEIGHT_WEIGHT, so the pelvis sinks rather than a leg stretching
+# to its knee stop to reach a far footstep.  At 1e-2 the passes diverged after the fourth
+# and M_gen's plan kept straight knees that then bent at 1.15 x their velocity limit; at
+# 1e-3 they converge monotonically (docs/experiments/filter-weights.md).
 FILTER_HEIGHT_WEIGHT = 1e-3
 
 
-def leg_joints(robot: Robot) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per side, the (q, v) indices of the joints between the pelvis and that sole."""
-    model = robot.model
-    out = {}
-    for side in SIDES:
-        joints = [i + 2 for i in robot.leg_chain(side)]
-        out[side] = (np.array([model.idx_qs[j] for j in joints]), np.array([model.idx_vs[j] for j in joints]))
-    return out
 
 
-def place_legs(
-    robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], legs: dict, height_weight: float = HEIGHT_WEIGHT
-) -> np.ndarray:
-    """``q`` with the legs moved so each sole reaches ``targets[side]``.
-
-    Levenberg-Marquardt on the two 6-D sole errors with the twelve leg joints and the
-    pelvis height.  The height is weakly held where it was, by ``height_weight`` (m of sole
-    error per m of height): it gives way when a leg would otherwise have to stretch beyond
-    its knee limit (long steps in double support).
-    """
-    model, data = robot.model, robot.model.createData()
-    q = q.copy()
-    height = q[2]
-    columns = np.concatenate([legs[side][1] for side in SIDES])
-    rows = np.concatenate([legs[side][0] for side in SIDES])
-    for _ in range(IK_ITERATIONS):
-        pin.forwardKinematics(model, data, q)
-        pin.computeJointJacobians(model, data, q)
-        up = data.oMi[1].rotation.T[:, 2]  # world z in the pelvis frame: base twists are local
-        residuals, jacobians = [], []
-        for side in SIDES:
-            frame = robot.foot_frames[side]
-            error = targets[side].actInv(pin.updateFramePlacement(model, data, frame))
-            J = pin.Jlog6(error) @ pin.getFrameJacobian(model, data, frame, pin.LOCAL)
-            residuals.append(pin.log6(error).vector)
-            jacobians.append(np.column_stack([J[:, :3] @ up, J[:, columns]]))
-        residuals.append([height_weight * (q[2] - height)])
-        jacobians.append(np.eye(1, 1 + len(columns)) * height_weight)
-        r, J = np.concatenate(residuals), np.vstack(jacobians)
-        if r @ r < IK_TOLERANCE**2:
-            break
-        # Levenberg-Marquardt: damping grows with the error, so an unreachable target
-        # (a leg stretched beyond its knee) gives a short, safe step instead of a wild one
-        step = np.linalg.solve(J.T @ J + (IK_DAMPING + r @ r) * np.eye(J.shape[1]), J.T @ r)
-        q[2] -= step[0]
-        q[rows] = np.clip(q[rows] - step[1:], model.lowerPositionLimit[rows], model.upperPositionLimit[rows])
-    return q
 
 
 def swing_targets(t: np.ndarray, placements: list[list[pin.SE3]], ground: list[list[pin.SE3 | None]]) -> list[list[pin.SE3]]:

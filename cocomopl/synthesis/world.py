@@ -15,9 +15,9 @@ import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
-from cocomopl.motion import Motion, StepSpec
-from cocomopl.ocp.problems import OTHER, foot_separation
-from cocomopl.primitives.model import PredictedStep
+from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, phase_plan
+from cocomopl.motion import Motion
+from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
 from cocomopl.synthesis.upper_body_limits import limit_upper_body, upper_body_joints
@@ -25,29 +25,8 @@ from cocomopl.synthesis.upper_body_limits import limit_upper_body, upper_body_jo
 REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
 
 
-def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
-    """Where each sole stands at each step's start and end, world frame (x forward, z up)."""
-    y = foot_separation(robot) / 2
-    feet = {"left": np.array([0.0, y, 0.0]), "right": np.array([0.0, -y, 0.0])}
-    out = []
-    for spec in specs:
-        start = {k: v.copy() for k, v in feet.items()}
-        stance = OTHER[spec.swing_side]
-        landing = feet[stance][0] + (spec.start_length if spec.kind == "stop" else spec.end_length)
-        feet[spec.swing_side][0] = landing
-        if spec.kind == "stop":  # the stance foot closes up beside it
-            feet[stance][0] = landing
-        out.append({"start": start, "end": {k: v.copy() for k, v in feet.items()}})
-    return out
 
 
-def phase_plan(spec: StepSpec) -> list[tuple[str, str | None]]:
-    """(phase kind, foot in the air or None) per phase of a step."""
-    swing, stance = spec.swing_side, OTHER[spec.swing_side]
-    plan = [("ds", None), ("ss", swing)]
-    if spec.kind == "stop":
-        plan += [("ds", None), ("ss", stance), ("ds", None)]
-    return plan
 
 
 def _segments(step: PredictedStep) -> list[tuple[int, int]]:
@@ -111,7 +90,7 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
     edges = step.phase_edges
     plan = phase_plan(step.spec)
     # before the step the previous step's stance foot, this step's swing foot, carried the robot
-    previous_air = None if first else OTHER[step.spec.swing_side]
+    previous_air = None if first else OTHER_SIDE[step.spec.swing_side]
     out = np.zeros((len(t), 2))
     for p, (kind, air) in enumerate(plan):
         rows = phase == p
@@ -125,10 +104,6 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
     return out
 
 
-def ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
-    """Where a sole stands in a phase: its start position until it has swung, then its end."""
-    swung = any(air == side for _, air in plan[:phase])
-    return feet["end" if swung else "start"][side]
 
 
 def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp) -> tuple[np.ndarray, dict]:

@@ -17,10 +17,11 @@ import numpy as np
 from tqdm import tqdm
 
 from cocomopl.errors import Error
+from cocomopl.gait import OTHER_SIDE, footsteps
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.ocp.problems import OTHER
+from cocomopl.ocp.action_models import OCPSettings
+from cocomopl.ocp.solve import solve_transition
 from cocomopl.robot import Robot, mirror_motion
-from cocomopl.synthesis.world import footsteps
 
 
 def _right_support(spec: StepSpec) -> StepSpec:
@@ -31,18 +32,18 @@ def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], 
     """The motion of one step in its own frame (stance sole at the origin): from ``motions``
     if solved there; a missing transition is solved between the gait states of its lengths,
     with the timing of the gait it leaves, exactly as the dataset's transitions are."""
-    from cocomopl.dataset.generate import transition_job
-
     right = _right_support(spec)
     if right.name not in motions:
         cyclic = {L: StepSpec("cyclic", L, L).name for L in (right.start_length, right.end_length)}
         missing = [name for name in cyclic.values() if name not in motions]
         if right.kind != "transition" or missing:
             raise Error(f"cannot solve {spec.name}: the dataset has no {', '.join(missing) or right.name}")
-        result = transition_job(robot.name, settings, right, motions[cyclic[right.start_length]], motions[cyclic[right.end_length]])
-        if not result.motions:
-            raise Error(f"the OCP of {right.name} did not converge: {result.failed}")
-        motions[right.name] = result.motions[right]
+        solved, attempts = solve_transition(
+            robot, OCPSettings(**settings), right, motions[cyclic[right.start_length]], motions[cyclic[right.end_length]]
+        )
+        if solved is None:
+            raise Error(f"the OCP of {right.name} did not converge: {attempts}")
+        motions[right.name] = solved
     motion = motions[right.name]
     return motion if spec.swing_side == "left" else mirror_motion(robot, motion)
 
@@ -104,11 +105,11 @@ def solve_sequence(
     ``motions`` is a dataset's motions by name and ``settings`` its OCP settings: its cyclic
     steps give the gait states, and its solved steps are reused (steps solved here are added
     to it).  The footsteps are those of
-    :func:`cocomopl.synthesis.world.footsteps`, the same as a generated walk's.
+    :func:`cocomopl.gait.footsteps`, the same as a generated walk's.
     """
     placed = []
     for spec, feet in tqdm(list(zip(specs, footsteps(robot, specs))), desc="M_opt steps", disable=not progress, leave=False):
-        stance = OTHER[spec.swing_side]
+        stance = OTHER_SIDE[spec.swing_side]
         motion = solve_step_motion(robot, spec, motions, settings)
         placed.append(place(motion, feet["start"][stance][:2]))  # a step's frame: stance sole at the origin
     return concatenate(placed)

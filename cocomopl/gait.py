@@ -1,0 +1,173 @@
+"""The walking vocabulary every stage shares: sides, footsteps, phase plans, step sequences.
+
+A walk is a list of step lengths (m): the first is the start step's, the last the stop's.
+From it follow the :class:`~cocomopl.motion.StepSpec` of each step, where each sole stands
+before and after it, and which foot is in the air in each of its phases.  Users give step
+lengths in millimetres, as the paper does; they are parsed here into metres.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.robot import Robot
+
+OTHER_SIDE = {"left": "right", "right": "left"}
+
+# The paper's test walk M_gen (sec. V) and its OC counterpart M_opt, with 400 for 390 mm
+M_GEN = (0.15, 0.15, 0.25, 0.35, 0.39, 0.35, 0.25, 0.15, 0.15)
+M_OPT = (0.15, 0.15, 0.25, 0.35, 0.40, 0.35, 0.25, 0.15, 0.15)
+M_GEN_MM = ",".join(f"{1000 * x:g}" for x in M_GEN)
+
+
+def foot_separation(robot: Robot) -> float:
+    """Lateral distance between the soles in the reference posture (m)."""
+    left = robot.frame_placement(robot.q_ref, robot.foot_frames["left"]).translation
+    right = robot.frame_placement(robot.q_ref, robot.foot_frames["right"]).translation
+    return round(float(left[1] - right[1]), 4)
+
+
+def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
+    """Where each sole stands at each step's start and end, world frame (x forward, z up)."""
+    y = foot_separation(robot) / 2
+    feet = {"left": np.array([0.0, y, 0.0]), "right": np.array([0.0, -y, 0.0])}
+    out = []
+    for spec in specs:
+        start = {k: v.copy() for k, v in feet.items()}
+        stance = OTHER_SIDE[spec.swing_side]
+        landing = feet[stance][0] + (spec.start_length if spec.kind == "stop" else spec.end_length)
+        feet[spec.swing_side][0] = landing
+        if spec.kind == "stop":  # the stance foot closes up beside it
+            feet[stance][0] = landing
+        out.append({"start": start, "end": {k: v.copy() for k, v in feet.items()}})
+    return out
+
+
+def phase_plan(spec: StepSpec) -> list[tuple[str, str | None]]:
+    """(phase kind, foot in the air or None) per phase of a step."""
+    swing, stance = spec.swing_side, OTHER_SIDE[spec.swing_side]
+    plan = [("ds", None), ("ss", swing)]
+    if spec.kind == "stop":
+        plan += [("ds", None), ("ss", stance), ("ds", None)]
+    return plan
+
+
+def ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
+    """Where a sole stands in a phase: its start position until it has swung, then its end."""
+    swung = any(air == side for _, air in plan[:phase])
+    return feet["end" if swung else "start"][side]
+
+
+
+def sequence_specs(lengths: Sequence[float], first_swing: str = "left") -> list[StepSpec]:
+    """Step specs for step lengths (m): a start, then cyclic or transition steps, then a stop.
+
+    The first length is the start step's, the last the stop's; in between, a step whose
+    length equals the previous one is cyclic, otherwise a transition.  Feet alternate.  A
+    stop starts in the gait of its own length, so the last two lengths must be equal (the
+    paper's M_gen ends ...,150,150).
+    """
+    lengths = [float(x) for x in lengths]
+    if len(lengths) < 2:
+        raise Error(f"a walk needs at least two steps (a start and a stop), got {len(lengths)}")
+    for x in lengths:
+        if not math.isfinite(x) or x <= 0:
+            raise Error(f"step length {x * 1000:g} mm must be a positive finite number")
+    if lengths[-1] != lengths[-2]:
+        # a stop step of length L starts in the gait of length L (the paper's S(L))
+        a, b = (f"{1000 * x:g}" for x in lengths[-2:])
+        raise Error(
+            f"the stop step ({b} mm) must repeat the length before it ({a} mm): a stop starts where the "
+            f"previous step ended; end the list with ...,{b},{b} or ...,{a},{a}"
+        )
+    specs = [StepSpec("start", 0.0, lengths[0], first_swing)]
+    for previous, length in zip(lengths[:-2], lengths[1:-1]):
+        kind = "cyclic" if length == previous else "transition"
+        specs.append(StepSpec(kind, previous, length, OTHER_SIDE[specs[-1].swing_side]))
+    specs.append(StepSpec("stop", lengths[-1], 0.0, OTHER_SIDE[specs[-1].swing_side]))
+    return specs
+
+
+def parse_sequence_mm(text: str) -> list[float]:
+    """Step lengths of a walk from ``"150,150,250,...,150"`` (millimetres) to metres, in order."""
+    items = [s.strip() for s in str(text).split(",")]
+    if not any(items):
+        raise Error("no step lengths given: expected e.g. --lengths-mm 150,150,250,150")
+    out = [length_mm_to_m(item) for item in items]
+    if len(out) < 2:
+        raise Error(f"a walk needs at least two steps (a start and a stop), got {len(out)}")
+    return out
+
+
+
+MAX_LENGTH_M = 0.80  # beyond any human-sized humanoid's stride; the IK rejects earlier
+# Shorter steps than this are not walking but shuffling, and no training set has them; it
+# also catches lengths typed in metres where millimetres are asked for (0.15 for 150).
+MIN_LENGTH_M = 0.05
+
+
+def length_mm_to_m(item: str) -> float:
+    """One step length given in millimetres, in metres; an :class:`Error` unless a number of millimetres within ``MIN_LENGTH_M``..``MAX_LENGTH_M``."""
+    try:
+        value = float(item)
+    except ValueError:
+        raise Error(f"step length {item!r} is not a number (millimetres expected)") from None
+    if not math.isfinite(value) or value <= 0:
+        raise Error(f"step length {item!r} mm must be a positive finite number")
+    if value / 1000 < MIN_LENGTH_M:
+        raise Error(
+            f"step length {value:g} mm is below the shortest step of {MIN_LENGTH_M * 1000:g} mm: step lengths are "
+            f"in millimetres ({value:g} m would be {value * 1000:g} mm)"
+        )
+    if value / 1000 > MAX_LENGTH_M:
+        raise Error(f"step length {value:g} mm is beyond reach (at most {MAX_LENGTH_M * 1000:g} mm)")
+    return round(value / 1000, 6)
+
+
+def parse_lengths_mm(text: str) -> tuple[float, ...]:
+    """Parse a comma-separated list of step lengths in millimetres into metres.
+
+    Raises
+    ------
+    Error
+        On anything but a list of distinct positive numbers.
+    """
+    items = [s.strip() for s in str(text).split(",") if s.strip()]
+    if not items:
+        raise Error("no step lengths given: expected e.g. --lengths-mm 150,250,300")
+    lengths = [length_mm_to_m(item) for item in items]
+    if len(set(lengths)) != len(lengths):
+        raise Error("step lengths must be distinct")
+    return tuple(sorted(lengths))
+
+
+def parse_transitions_mm(text: str, lengths: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
+    """Parse extra transitions such as ``150-250,250-350`` (mm) into pairs of lengths (m).
+
+    Raises
+    ------
+    Error
+        Unless every pair joins two different lengths of ``lengths``.
+    """
+    pairs = []
+    for item in (s.strip() for s in str(text).split(",") if s.strip()):
+        ends = item.split("-")
+        if len(ends) != 2:
+            raise Error(f"transition {item!r} is not two lengths in millimetres joined by '-', e.g. 150-250")
+        try:
+            a, b = (length_mm_to_m(end) for end in ends)
+        except Error as exc:
+            raise Error(f"transition {item!r}: {exc}") from None
+        for end in (a, b):
+            if end not in lengths:
+                raise Error(f"transition {item!r}: {end * 1000:g} mm is not one of the training lengths")
+        if a == b:
+            raise Error(f"transition {item!r} joins a length to itself (that is a cyclic step)")
+        pairs.append((min(a, b), max(a, b)))
+    return tuple(sorted(set(pairs)))
+

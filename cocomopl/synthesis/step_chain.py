@@ -1,0 +1,40 @@
+"""From a list of step lengths to a chain of predicted steps, each started where the last ended."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
+
+
+class OutOfSupportWarning(UserWarning):
+    """A step's parameters lie outside the training data's support: trust it less."""
+
+
+
+
+def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict: bool = False) -> list[PredictedStep]:
+    """Predict each step, conditioning its start on the previous step's end.
+
+    Steps outside the training support raise :class:`Error` with ``strict``, and otherwise
+    come with an :class:`OutOfSupportWarning` naming their distance to the data.
+    """
+    steps, end = [], None
+    for spec in specs:
+        step = model.predict(spec, start=end)
+        if not step.in_support:
+            message = (
+                f"{spec.name} is {step.distance * 1000:.0f} mm from the nearest training step of its type; "
+                f"predicted joint-angle std up to {step.std[:, :30].max():.3f} rad"
+            )
+            if strict:
+                raise Error(f"refused (--strict): {message}")
+            warnings.warn(message, OutOfSupportWarning, stacklevel=2)
+        steps.append(step)
+        end = step.values[-1]
+    return steps
+
+
