@@ -82,7 +82,7 @@ def crocoddyl_reference(length: float, dt: float, ds_knots: int, ss_knots: int) 
 
 
 def cocomopl_cyclic(length: float) -> dict:
-    from cocomopl.ocp.action_models import OCPSettings
+    from cocomopl.ocp.settings import OCPSettings
     from cocomopl.ocp.solve import solve_length, to_motion
     from cocomopl.robot import Robot
 
@@ -126,7 +126,7 @@ def main() -> int:
         report["regenerated_wall_time_s"] = regenerate()
     length = args.length_mm / 1000
     ours = cocomopl_cyclic(length)
-    from cocomopl.ocp.action_models import OCPSettings
+    from cocomopl.ocp.settings import OCPSettings
 
     s = OCPSettings()
     report["side_by_side"] = [

@@ -44,17 +44,12 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from peers_evaluation import evaluate_lolo, fit_folds, length_mm, lolo_folds
 from scipy.spatial import Delaunay, QhullError
 
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.estimator import MovementPrimitives
-from cocomopl.primitives.evaluation import (
-    evaluate_lolo,
-    fit_folds,
-    length_mm,
-    lolo_folds,
-)
 from cocomopl.primitives.training import (
     TrainingSteps,
     load_training_steps,

@@ -36,7 +36,7 @@ from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 def run_one(lengths_mm: list[float], contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
     from cocomopl.analysis.feasibility import check_motion, tolerances, violations
-    from cocomopl.ocp.action_models import OCPSettings
+    from cocomopl.ocp.settings import OCPSettings
     from cocomopl.pipeline import generate_walk
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import simulate

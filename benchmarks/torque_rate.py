@@ -27,7 +27,7 @@ def main() -> int:
     from cocomopl.dataset.generate import phase_durations
     from cocomopl.motion import StepSpec
     from cocomopl.motion_file import read_motion
-    from cocomopl.ocp.action_models import OCPSettings
+    from cocomopl.ocp.settings import OCPSettings
     from cocomopl.ocp.solve import solve_step, to_motion
     from cocomopl.robot import Robot
 

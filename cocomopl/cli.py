@@ -1,29 +1,36 @@
-"""The ``cocomopl`` command.  Thin: parse, call the API, print a table or one JSON object."""
+"""The ``cocomopl`` command: parse the options, call one API function, print.
+
+Every command prints a table by default and exactly one JSON object on stdout with
+``--json``; progress and warnings go to stderr.  A mistake a user can make is one line
+``cocomopl: error: ...`` and exit 2, without a traceback.  The work itself is in
+:mod:`cocomopl.jobs` and :mod:`cocomopl.pipeline`.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
-import shlex
+import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from cocomopl.dataset.plan import DEFAULT_LENGTHS_M
 from cocomopl.errors import Error
-from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_PRIMITIVES
-
-BUNDLED_DATASET = Path(__file__).parent / "data" / "dataset.h5"
-BUNDLED_MODEL = Path(__file__).parent / "data" / "model.npz"
-M_GEN_MM = "150,150,250,350,390,350,250,150,150"  # the paper's generated sequence
+from cocomopl.provenance import command_line
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors."""
+    """argparse with one-line errors under the one prefix."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        self.exit(2, f"cocomopl: error: {message}\n")
+
+
+# ---------------------------------------------------------------------------- option types
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
 def _positive_int(text: str) -> int:
@@ -36,16 +43,9 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _number(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-
-
 def _positive_float(text: str) -> float:
     value = _number(text)
-    if not value > 0 or value == float("inf"):
+    if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"{text!r} must be a positive finite number")
     return value
 
@@ -57,7 +57,7 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
-def _checked(check, value: float) -> float:
+def _checked(check, value):
     """``check(value)``, its :class:`Error` turned into argparse's one-line usage error."""
     try:
         return check(value)
@@ -77,268 +77,56 @@ def _reference_cutoff(text: str) -> float:
     return _checked(check_reference_cutoff, _number(text))
 
 
-CUTOFF_HELP = "cut-off in Hz of the low-pass of the reference joints (default: 15; 0 plays the plan's knots interpolated linearly)"
-CONTACT_HELP = "sole-floor contact softness, a time constant in s (default: 0.01, rubber soles; 0.005 is stiffer)"
+def _walk_lengths_mm(text: str) -> list[float]:
+    from cocomopl.gait import parse_sequence_mm
+
+    return _checked(parse_sequence_mm, text)
 
 
-def _emit(args, payload: dict, table: str) -> None:
-    if args.json:
-        print(json.dumps(payload, default=float))
-    else:
-        print(table)
+def _training_lengths_mm(text: str) -> tuple[float, ...]:
+    from cocomopl.gait import parse_lengths_mm
+
+    return _checked(parse_lengths_mm, text)
 
 
-def _dataset_path(path: str | None) -> Path:
-    if path is not None:
-        return Path(path)
-    if not BUNDLED_DATASET.exists():
-        raise Error(f"the bundled dataset is missing ({BUNDLED_DATASET}); generate one with 'cocomopl dataset generate'")
-    return BUNDLED_DATASET
-
-
-# ---------------------------------------------------------------------------- dataset
-def cmd_dataset_generate(args) -> int:
-    from dataclasses import replace
-
-    from cocomopl.dataset.generate import generate
-    from cocomopl.gait import foot_separation, parse_lengths_mm, parse_transitions_mm
-    from cocomopl.kinematics import double_support_posture
-    from cocomopl.ocp.action_models import OCPSettings, knee_bounds
-    from cocomopl.robot import Robot
-
-    lengths = parse_lengths_mm(args.lengths_mm)
-    # None: generate() takes the default extra transitions of these lengths
-    extra = None if args.extra_transitions_mm is None else parse_transitions_mm(args.extra_transitions_mm, lengths)
-    robot = Robot(args.robot)
-    for L in lengths:  # a stance the robot cannot take is rejected before any solving
-        if L > robot.max_step_length:
-            raise Error(
-                f"step length {L * 1000:g} mm is beyond {robot.name}'s reach "
-                f"(at most {robot.max_step_length * 1000:g} mm, from its description)"
-            )
-        double_support_posture(robot, (-L, foot_separation(robot)), (0.0, 0.0))
-    settings = OCPSettings()
-    if args.dt is not None:
-        settings = replace(settings, dt=args.dt)
-    if args.max_iterations is not None:
-        settings = replace(settings, max_iterations=args.max_iterations)
-    if args.load_transfer_weight is not None:
-        settings = replace(settings, w_load_transfer=args.load_transfer_weight)
-    if args.min_knee_flexion_rad is not None:
-        settings = replace(settings, min_knee_flexion=args.min_knee_flexion_rad)
-    knee_bounds(robot, settings.min_knee_flexion)  # a bend the knees cannot make is refused before solving
-    out = Path(args.out)
-    if out.exists() and out.is_dir():
-        raise Error(f"--out {out} is a directory; give a file path such as {out / 'dataset.h5'}")
-    command = "cocomopl " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    summary = generate(
-        out,
-        lengths,
-        extra,
-        robot_name=args.robot,
-        settings=settings,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        command=command,
-        progress=True,  # on stderr, so --json output stays one object on stdout
-    )
-    table = (
-        f"wrote {summary['output']}: {summary['motions']} motions from {summary['ocps']} OCPs "
-        f"({summary['solved']} solved, {summary['reused']} reused) in {summary['wall_time_s']:.1f} s"
-    )
-    if summary["failed"]:
-        table += f"\nNOT CONVERGED (left out): {', '.join(summary['failed'])}"
-    _emit(args, summary, table)
-    return 1 if summary["failed"] else 0
-
-
-def cmd_dataset_info(args) -> int:
-    from cocomopl.dataset.info import dataset_info, format_info
-
-    info = dataset_info(_dataset_path(args.file))
-    _emit(args, info, format_info(info))
-    return 0
-
-
-def cmd_dataset_check(args) -> int:
-    from cocomopl.dataset.check import check_dataset
-    from cocomopl.motion_file import read_motions
-    from cocomopl.robot import Robot
-
-    path = _dataset_path(args.file)
-    motions, attrs = read_motions(path)
-    robot = Robot(attrs.get("robot", "talos"))
-    settings = attrs.get("settings", {})
-    report = check_dataset(robot, motions, float(settings.get("friction", 0.7)), float(settings.get("dt", 0.025)))
-    if not args.verbose:
-        report.pop("per_motion")
-    lines = [f"{path}: {report['motions']} motions, {report['junctions']} step junctions"]
-    lines.append(f"{'check':28s} {'worst':>12s} {'tolerance':>10s}  result  where")
-    for key, value in report["worst"].items():
-        ok = key not in report["failures"]
-        bound = (">= " if key in ("zmp_margin", "min_normal_force") else "<= ") + f"{report['tolerances'][key]:g}"
-        lines.append(f"{key:28s} {value:12.4g} {bound:>10s}  {'ok' if ok else 'FAIL':6s}  {report['worst_in'][key]}")
-    lines.append("PASS" if report["ok"] else f"FAIL: {', '.join(report['failures'])}")
-    _emit(args, report, "\n".join(lines))
-    return 0 if report["ok"] else 1
-
-
-def _model_path(path: str | None) -> Path:
-    if path is not None:
-        return Path(path)
-    if not BUNDLED_MODEL.exists():
-        raise Error(f"the bundled model is missing ({BUNDLED_MODEL}); train one with 'cocomopl train'")
-    return BUNDLED_MODEL
-
-
-def _int_list(text: str) -> list[int]:
+def _int_list(text: str) -> tuple[int, ...]:
     try:
         values = [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of whole numbers") from None
     if not values or min(values) < 1:
         raise argparse.ArgumentTypeError(f"{text!r} must list positive whole numbers")
-    return sorted(set(values))
+    return tuple(sorted(set(values)))
 
 
-def _kernel_list(text: str) -> list[str]:
+def _kernel_list(text: str) -> tuple[str, ...]:
     from cocomopl.primitives.kernels import TIME_KERNELS
 
     values = [x.strip() for x in text.split(",") if x.strip()]
     unknown = [x for x in values if x not in TIME_KERNELS]
     if not values or unknown:
         raise argparse.ArgumentTypeError(f"unknown kernel(s) {unknown or text!r}; choose from {','.join(TIME_KERNELS)}")
-    return values
+    return tuple(values)
 
 
-# ---------------------------------------------------------------------------- primitives
-def cmd_train(args) -> int:
-    import os
-    import time
-
-    from cocomopl.analysis.plots import plot_model_selection
-    from cocomopl.motion_file import writable_folder
-    from cocomopl.primitives.model_file import save_model
-    from cocomopl.primitives.selection import select_model
-    from cocomopl.primitives.training import load_training_steps
-    from cocomopl.provenance import versions
-
-    out = Path(args.out)
-    if out.is_dir():
-        raise Error(f"--out {out} is a directory; give a file path such as {out / 'model.npz'}")
-    writable_folder(out.parent, f"the folder of --out {out}")
-    data = _dataset_path(args.data)
-    steps = load_training_steps(data)
-    started = time.perf_counter()
-    best, rows = select_model(
-        steps,
-        n_primitives=args.primitives,
-        kernels=args.kernels,
-        max_iterations=args.max_iterations,
-        workers=args.workers or os.cpu_count() or 1,
-        progress=True,
-    )
-    wall = time.perf_counter() - started
-    metadata = {
-        "command": "cocomopl " + " ".join(shlex.quote(a) for a in sys.argv[1:]),
-        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "versions": versions(["numpy", "scipy", "jax", "jaxlib", "pin", "crocoddyl"]),
-        "robot": steps.source["robot"] or "talos",
-        "dataset": {**steps.source, "path": str(data), "steps": len(steps)},
-        "selection": rows,
-        "training_wall_time_s": wall,
-    }
-    save_model(out, best, metadata)
-    plot = plot_model_selection(rows, out.with_suffix(".png"))
-    lines = [f"{'kernel':9s} {'S':>3s} {'free energy':>13s} {'EV joints':>10s} {'EV zmp':>8s} {'EV pelvis':>10s} {'iter':>5s}"]
-    for r in rows:
-        ev = r["explained_variance"]
-        mark = "  <- best" if (r["kernel"], r["n_primitives"]) == (best.kernel, best.n_primitives) else ""
-        lines.append(
-            f"{r['kernel']:9s} {r['n_primitives']:3d} {r['bound']:13.1f} {100 * ev['joints']:9.3f}% "
-            f"{100 * ev['zmp']:7.3f}% {100 * ev['pelvis']:9.3f}% {r['iterations']:5d}{mark}"
-        )
-    lines.append(f"wrote {out} ({best.kernel}, {best.n_primitives} primitives) and {plot} in {wall:.0f} s")
-    payload = {"output": str(out), "plot": str(plot), "kernel": best.kernel, "n_primitives": best.n_primitives,
-               "bound": best.bound_, "explained_variance": best.explained_variance_, "selection": rows,
-               "wall_time_s": wall}
-    _emit(args, payload, "\n".join(lines))
-    return 0
+# ---------------------------------------------------------------------------- printing
+def _emit(args, payload: dict, table: str) -> None:
+    print(json.dumps(payload, default=float) if args.json else table)
 
 
-def cmd_model_info(args) -> int:
-    from cocomopl.primitives.model_file import model_metadata
-
-    path = _model_path(args.file)
-    meta = model_metadata(path)
-    info = {"file": str(path), **{k: meta.get(k) for k in (
-        "n_primitives", "kernel", "bound", "explained_variance", "n_grid", "created", "command", "versions",
-        "dataset", "training_wall_time_s", "checksum", "format_version")}}
-    if args.verbose:
-        info["selection"] = meta.get("selection")
-    ev = info["explained_variance"] or {}
-    table = "\n".join([
-        f"{path}: {info['n_primitives']} primitives, {info['kernel']} kernel, free energy {info['bound']:.1f}",
-        "explained variance: " + ", ".join(f"{g} {100 * v:.3f}%" for g, v in ev.items()),
-        f"trained {info['created']} by: {info['command']}",
-        f"from {info['dataset']}",
-    ])
-    _emit(args, info, table)
-    return 0
+def _warn(message: str) -> None:
+    print(f"cocomopl: warning: {message}", file=sys.stderr)
 
 
-def cmd_generate(args) -> int:
-    from cocomopl.gait import parse_sequence_mm
-    from cocomopl.motion_file import writable_folder, write_motions
-    from cocomopl.pipeline import generate_walk
-
-    lengths = parse_sequence_mm(args.lengths_mm)
-    out = Path(args.out)
-    if out.is_dir():
-        raise Error(f"--out {out} is a directory; give a file path such as {out / 'motion.h5'}")
-    writable_folder(out.parent, f"the folder of --out {out}")
-    walk = generate_walk(lengths, _model_path(args.model), args.dt, args.first_swing, args.strict)
-    for message in walk.warnings:
-        print(f"cocomopl: warning: {message}", file=sys.stderr)
-    motion, steps, generation_s, placement_s = walk.motion, walk.steps, walk.generation_s, walk.placement_s
-    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": "primitives"})
-    rows = [{
-        "step": s.spec.name, "duration_s": s.duration, "duration_std_s": float(np.linalg.norm(s.duration_std)),
-        "joint_std_max_rad": float(s.std[:, :30].max()), "in_support": bool(s.in_support),
-        "distance_mm": 1000 * s.distance} for s in steps]
-    payload = {"output": str(out), "steps": rows, "n_steps": len(steps), "duration_s": motion.duration,
-               "generation_s": generation_s, "placement_s": placement_s,
-               "dynamics_filter_zmp_error_m": motion.meta["plan_zmp_error_m"],
-               "upper_body_limits": motion.meta["upper_body_limits"],
-               "out_of_support": [r["step"] for r in rows if not r["in_support"]]}
-    lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support"]
-    lines += [f"{r['step']:24s} {r['duration_s']:8.3f}s {r['joint_std_max_rad']:12.4f}rad  "
-              + ("ok" if r["in_support"] else f"OUTSIDE ({r['distance_mm']:.0f} mm away)") for r in rows]
-    upper = motion.meta["upper_body_limits"]
-    lines.append(f"upper body (the joints that carry no sole) corrected by up to {upper['largest_change_rad']:.3f} rad: torque "
-                 f"{upper['torque_ratio_before']:.2f} -> {upper['torque_ratio_after']:.2f}, velocity "
-                 f"{upper['velocity_ratio_before']:.2f} -> {upper['velocity_ratio_after']:.2f} of the limits")
-    lines.append(f"wrote {out}: {len(steps)} steps, {motion.duration:.2f} s of walking; generated in "
-                 f"{generation_s * 1e6:.0f} us, placed in the world in {placement_s * 1e3:.0f} ms")
-    _emit(args, payload, "\n".join(lines))
-    return 0
+def _note_replacing(*paths: str | Path) -> None:
+    """Say which existing outputs a command is about to replace."""
+    for path in map(Path, paths):
+        if path.is_file():
+            _warn(f"replacing {path}")
+        elif path.is_dir() and any(path.iterdir()):
+            _warn(f"writing into {path}, which is not empty: its files of the same names are replaced")
 
 
-# ---------------------------------------------------------------------------- plot
-def cmd_plot(args) -> int:
-    from cocomopl.analysis.plots import plot_motion
-    from cocomopl.motion_file import read_motion
-    from cocomopl.robot import Robot
-
-    motion = read_motion(args.file, args.motion)
-    robot = Robot(motion.robot)
-    out = Path(args.out) if args.out else Path(f"{motion.name}-plots")
-    files = plot_motion(robot, motion, out)
-    _emit(args, {"files": [str(f) for f in files]}, "\n".join(f"wrote {f}" for f in files))
-    return 0
-
-
-# ---------------------------------------------------------------------------- simulation
 METRIC_ROWS = (
     ("fell", "fell", "{}"),
     ("peak_force_over_weight", "peak vertical force / weight", "{:.2f}"),
@@ -359,50 +147,151 @@ def _metrics_table(metrics: dict) -> str:
     )
 
 
-def _output_file(path: str, default: Path) -> Path:
-    out = Path(path) if path else default
-    if out.is_dir():
-        raise Error(f"--out {out} is a directory; give a file path such as {out / 'motion.h5'}")
-    from cocomopl.motion_file import writable_folder
+def _selection_table(rows: list[dict], best: tuple[str, int] | None) -> list[str]:
+    lines = [f"{'kernel':9s} {'S':>3s} {'free energy':>13s} {'EV joints':>10s} {'EV zmp':>8s} {'EV pelvis':>10s} {'iter':>5s}"]
+    for r in rows:
+        ev = r["explained_variance"]
+        mark = "  <- best" if (r["kernel"], r["n_primitives"]) == best else ""
+        lines.append(
+            f"{r['kernel']:9s} {r['n_primitives']:3d} {r['bound']:13.1f} {100 * ev['joints']:9.3f}% "
+            f"{100 * ev['zmp']:7.3f}% {100 * ev['pelvis']:9.3f}% {r['iterations']:5d}{mark}"
+        )
+    return lines
 
-    writable_folder(out.parent, f"the folder of --out {out}")
-    return out
+
+# ---------------------------------------------------------------------------- commands
+def cmd_dataset_generate(args) -> int:
+    from cocomopl.gait import parse_transitions_mm
+    from cocomopl.jobs import generate_dataset
+
+    # None: the default extra transitions of these lengths
+    extra = None if args.extra_transitions_mm is None else parse_transitions_mm(args.extra_transitions_mm, args.lengths_mm)
+    _note_replacing(args.out)
+    summary = generate_dataset(
+        args.out, args.lengths_mm, extra, args.robot, args.dt, args.max_iterations, args.load_transfer_weight,
+        args.min_knee_flexion_rad, args.workers, args.scheduler, args.command_line, progress=True,
+    )
+    table = (
+        f"wrote {summary['output']}: {summary['motions']} motions from {summary['ocps']} OCPs "
+        f"({summary['solved']} solved, {summary['reused']} reused) in {summary['wall_time_s']:.1f} s"
+    )
+    if summary["failed"]:
+        table += f"\nNOT CONVERGED (left out): {', '.join(summary['failed'])}"
+    _emit(args, summary, table)
+    return 1 if summary["failed"] else 0
+
+
+def cmd_dataset_info(args) -> int:
+    from cocomopl.data import dataset_path
+    from cocomopl.dataset.info import dataset_info, format_info
+
+    info = dataset_info(dataset_path(args.file))
+    _emit(args, info, format_info(info))
+    return 0
+
+
+def cmd_dataset_check(args) -> int:
+    from cocomopl.jobs import check_dataset_file
+
+    report = check_dataset_file(args.file, args.verbose)
+    lines = [f"{report['file']}: {report['motions']} motions, {report['junctions']} step junctions",
+             f"{'check':28s} {'worst':>12s} {'tolerance':>10s}  result  where"]
+    for key, value in report["worst"].items():
+        ok = key not in report["failures"]
+        bound = (">= " if key in ("zmp_margin", "min_normal_force") else "<= ") + f"{report['tolerances'][key]:g}"
+        lines.append(f"{key:28s} {value:12.4g} {bound:>10s}  {'ok' if ok else 'FAIL':6s}  {report['worst_in'][key]}")
+    lines.append("PASS" if report["ok"] else f"FAIL: {', '.join(report['failures'])}")
+    _emit(args, report, "\n".join(lines))
+    return 0 if report["ok"] else 1
+
+
+def cmd_train(args) -> int:
+    from cocomopl.jobs import train_model
+
+    _note_replacing(args.out, Path(args.out).with_suffix(".png"))
+    payload = train_model(args.out, args.data, args.primitives, args.kernels, args.max_iterations,
+                          args.workers or os.cpu_count() or 1, args.command_line, progress=True)
+    lines = _selection_table(payload["selection"], (payload["kernel"], payload["n_primitives"]))
+    lines.append(f"wrote {payload['output']} ({payload['kernel']}, {payload['n_primitives']} primitives) and "
+                 f"{payload['plot']} in {payload['wall_time_s']:.0f} s")
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
+def cmd_model_info(args) -> int:
+    from cocomopl.jobs import model_info
+
+    info = model_info(args.file, args.verbose)
+    ev, dataset = info["explained_variance"] or {}, info["dataset"]
+    checksum = f", sha256 {dataset['sha256'][:12]}" if dataset.get("sha256") else ""
+    lines = [
+        f"{info['file']}: {info['n_primitives']} primitives, {info['kernel']} kernel, free energy {info['bound']:.1f}",
+        "explained variance: " + ", ".join(f"{g} {100 * v:.3f}%" for g, v in ev.items()),
+        f"trained {info['created']} by: {info['command']}",
+        f"on {dataset.get('name', '?')}{checksum} ({dataset.get('steps', '?')} steps)",
+    ]
+    if args.verbose and info.get("selection"):
+        lines += ["model selection:", *_selection_table(info["selection"], (info["kernel"], info["n_primitives"]))]
+    _emit(args, info, "\n".join(lines))
+    return 0
+
+
+def cmd_generate(args) -> int:
+    from cocomopl.jobs import generate_walk_file
+
+    _note_replacing(args.out)
+    payload = generate_walk_file(args.lengths_mm, args.out, args.model, args.dt, args.first_swing, args.strict,
+                                 args.command_line)
+    for message in payload["warnings"]:
+        _warn(message)
+    rows = payload["steps"]
+    lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support"]
+    lines += [f"{r['step']:24s} {r['duration_s']:8.3f}s {r['joint_std_max_rad']:12.4f}rad  "
+              + ("ok" if r["in_support"] else f"OUTSIDE ({r['distance_mm']:.0f} mm away)") for r in rows]
+    upper = payload["upper_body_limits"]
+    lines.append(f"upper body (the joints that carry no sole) corrected by up to {upper['largest_change_rad']:.3f} rad: "
+                 f"torque {upper['torque_ratio_before']:.2f} -> {upper['torque_ratio_after']:.2f}, velocity "
+                 f"{upper['velocity_ratio_before']:.2f} -> {upper['velocity_ratio_after']:.2f} of the limits")
+    lines.append(f"wrote {payload['output']}: {len(rows)} steps, {payload['duration_s']:.2f} s of walking; generated in "
+                 f"{payload['generation_s'] * 1e6:.0f} us, placed in the world in {payload['placement_s'] * 1e3:.0f} ms")
+    _emit(args, payload, "\n".join(lines))
+    return 0
+
+
+def cmd_plot(args) -> int:
+    from cocomopl.jobs import plot_file
+
+    payload = plot_file(args.file, args.motion, args.out)
+    _emit(args, payload, "\n".join(f"wrote {f}" for f in payload["files"]))
+    return 0
 
 
 def cmd_simulate(args) -> int:
-    from cocomopl.motion_file import read_motion, write_motions
-    from cocomopl.pipeline import simulate_walk
-    from cocomopl.robot import Robot
+    from cocomopl.jobs import simulate_file
 
-    reference = read_motion(args.file, args.motion)
-    out = _output_file(args.out, Path(f"{Path(args.file).stem}-sim.h5"))
-    robot = Robot(reference.robot)
-    rollout, metrics = simulate_walk(robot, reference, stabilizer=not args.no_stabilizer, progress=not args.json,
-                                     contact_time_constant=args.contact_time_constant_s,
-                                     reference_cutoff_hz=args.reference_cutoff_hz)
-    write_motions(out, {"measured": rollout.measured}, {"robot": robot.name, "producer": "mujoco"})
-    payload = {"output": str(out), "stabilizer": not args.no_stabilizer,
-               "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
-               "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
-    _emit(args, payload, _metrics_table(metrics) + f"\nwrote {out}")
-    return 1 if rollout.fell else 0
+    _note_replacing(args.out or f"{Path(args.file).stem}-sim.h5")
+    payload = simulate_file(args.file, args.motion, args.out, not args.no_stabilizer, args.contact_time_constant_s,
+                            args.reference_cutoff_hz, args.command_line, progress=not args.json)
+    _emit(args, payload, _metrics_table(payload) + f"\nwrote {payload['output']}")
+    return 1 if payload["fell"] else 0
 
 
 def cmd_walk(args) -> int:
-    from cocomopl.gait import parse_sequence_mm
     from cocomopl.pipeline import walk_report
 
-    lengths = parse_sequence_mm(args.lengths_mm)
-    payload = walk_report(lengths, Path(args.out), _model_path(args.model), stabilizer=not args.no_stabilizer,
-                          video=not args.no_video, progress=not args.json,
-                          contact_time_constant=args.contact_time_constant_s,
-                          reference_cutoff_hz=args.reference_cutoff_hz)
+    out = Path(args.out)
+    _note_replacing(out)
+    payload = walk_report(args.lengths_mm, out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
+                          progress=not args.json, contact_time_constant=args.contact_time_constant_s,
+                          reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
+                          strict=args.strict, command=args.command_line)
     for message in payload["warnings"]:
-        print(f"cocomopl: warning: {message}", file=sys.stderr)
-    lines = [f"walk {args.lengths_mm} mm: {len(payload['steps'])} steps, generated in "
-             f"{payload['generation_s'] * 1e3:.2f} ms, simulated in MuJoCo "
-             f"({'with' if payload['stabilizer'] else 'without'} stabilizer)", _metrics_table(payload),
-             f"report in {args.out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
+        _warn(message)
+    lengths = ",".join(f"{x:g}" for x in payload["lengths_mm"])
+    lines = [f"walk {lengths} mm: {len(payload['steps'])} steps, generated in {payload['generation_s'] * 1e3:.2f} ms, "
+             f"simulated in MuJoCo ({'with' if payload['stabilizer'] else 'without'} stabilizer)",
+             _metrics_table(payload),
+             f"report in {out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
     _emit(args, payload, "\n".join(lines))
     return 1 if payload["fell"] else 0
 
@@ -410,9 +299,11 @@ def cmd_walk(args) -> int:
 def cmd_reproduce(args) -> int:
     from cocomopl.pipeline import reproduce_report
 
-    payload = reproduce_report(Path(args.out), _model_path(args.model), _dataset_path(args.data), progress=not args.json,
+    out = Path(args.out)
+    _note_replacing(out)
+    payload = reproduce_report(out, args.model, args.data, progress=not args.json,
                                contact_time_constant=args.contact_time_constant_s,
-                               reference_cutoff_hz=args.reference_cutoff_hz)
+                               reference_cutoff_hz=args.reference_cutoff_hz, command=args.command_line)
     lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
     lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
@@ -425,176 +316,224 @@ def cmd_reproduce(args) -> int:
                      f"{m['force_variation_over_weight']:18.1f} {payload['planned_force_variation_over_weight'][name]:10.1f} "
                      f"{zmp:>12s} {delay:>20s}")
     lines.append(f"MP contact forces smoother than Kajita's: {payload['mp_smoother_than_kajita']}")
-    lines.append(f"M_opt solved in {payload['m_opt_solve_s']:.0f} s; report in {args.out}/ ({payload['wall_time_s']:.0f} s)")
+    solved = payload["m_opt_solved_now"]
+    lines.append(f"M_opt: {payload['m_opt_steps']} step OCPs, {payload['m_opt_steps'] - len(solved)} from the dataset and "
+                 f"{len(solved)} solved now{' (' + ', '.join(solved) + ')' if solved else ''} in "
+                 f"{payload['m_opt_solve_s']:.1f} s; report in {out}/ ({payload['wall_time_s']:.0f} s)")
     _emit(args, payload, "\n".join(lines))
     return 0
 
 
 def cmd_export(args) -> int:
-    from cocomopl.export.safety import check_safe
-    from cocomopl.export.seqplay import export_motion
-    from cocomopl.motion_file import read_motion, writable_folder
-    from cocomopl.robot import Robot
+    from cocomopl.jobs import export_file
 
-    motion = read_motion(args.file, args.motion)
-    prefix = Path(args.out)
-    if prefix.is_dir():
-        raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
-    robot = Robot(motion.robot)
-    reasons = check_safe(robot, motion)
-    if reasons and not args.force:
-        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
-        raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}; --force exports anyway")
-    writable_folder(prefix.parent, f"the folder of --out {prefix}")
-    files = export_motion(robot, motion, args.format, prefix)
-    payload = {"files": [str(f) for f in files], "format": args.format, "unsafe": reasons, "forced": bool(reasons)}
-    lines = [f"wrote {f}" for f in files] + [f"warning (--force): {r}" for r in reasons]
+    payload = export_file(args.file, args.format, args.out, args.motion, args.force)
+    lines = [f"wrote {f}" for f in payload["files"]] + [f"warning (--force): {r}" for r in payload["unsafe"]]
     _emit(args, payload, "\n".join(lines))
     return 0
+
+
+def cmd_export_model(args) -> int:
+    from cocomopl.export.mjcf import export_model
+
+    _note_replacing(args.out)
+    payload = export_model(args.robot, args.format, args.out)
+    _emit(args, payload, f"wrote {payload['output']}")
+    return 0
+
+
+# ---------------------------------------------------------------------------- the parser
+def _json_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
+
+
+def _simulation_options(parser: argparse.ArgumentParser) -> None:
+    from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT
+    from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ
+
+    parser.add_argument("--contact-time-constant-s", type=_contact_time_constant, metavar="S",
+                        help=f"sole-floor contact softness, a time constant in s (default: {CONTACT_TIME_CONSTANT:g}, "
+                        "rubber soles; 0.005 is nearly rigid)")
+    parser.add_argument("--reference-cutoff-hz", type=_reference_cutoff, metavar="HZ",
+                        help=f"cut-off of the reference joints' low-pass, in Hz (default: {REFERENCE_CUTOFF_HZ:g}; "
+                        "0 plays the plan's knots interpolated linearly)")
+
+
+def _synthesis_options(parser: argparse.ArgumentParser) -> None:
+    from cocomopl.gait import M_GEN_MM
+    from cocomopl.pipeline import PLAN_DT
+
+    parser.add_argument("--lengths-mm", type=_walk_lengths_mm, default=M_GEN_MM, metavar="MM,MM,...",
+                        help="step lengths in millimetres, in order: start, ..., stop; the last two equal "
+                        f"(default: the paper's M_gen, {M_GEN_MM})")
+    parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
+    parser.add_argument("--dt", type=_positive_float, metavar="S",
+                        help=f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})")
+    parser.add_argument("--first-swing", choices=("left", "right"), default="left",
+                        help="the foot that steps first (default: %(default)s)")
+    parser.add_argument("--strict", action="store_true", help="refuse steps outside the training data's support")
+
+
+def _dataset_parsers(sub) -> None:
+    from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_LENGTHS_M
+    from cocomopl.ocp.settings import OCPSettings
+    from cocomopl.robot import DEFAULT_ROBOT
+
+    defaults = OCPSettings()
+    dataset = sub.add_parser("dataset", help="optimal-control training data").add_subparsers(
+        dest="action", required=True, parser_class=_Parser)
+
+    gen = dataset.add_parser("generate", help="solve the step OCPs and write the training dataset (HDF5)")
+    lengths_mm = ",".join(f"{1000 * x:g}" for x in DEFAULT_LENGTHS_M)
+    gen.add_argument("--lengths-mm", type=_training_lengths_mm, default=DEFAULT_LENGTHS_M, metavar="MM,MM,...",
+                     help=f"training step lengths in millimetres (default: {lengths_mm})")
+    extra = ",".join(f"{1000 * a:g}-{1000 * b:g}" for a, b in DEFAULT_EXTRA_TRANSITIONS_M)
+    gen.add_argument("--extra-transitions-mm", metavar="A-B,...",
+                     help="transitions between training lengths that are not neighbours, in millimetres, solved both "
+                     f"ways (default: {extra}, those whose lengths are trained; '' for none)")
+    gen.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
+                     help="bundled robot name or robot description file (default: %(default)s)")
+    gen.add_argument("--out", default="cocomopl-dataset.h5", metavar="FILE.h5", help="output HDF5 file (default: %(default)s)")
+    gen.add_argument("--workers", type=_positive_int, metavar="N", help="local worker processes (default: one per core)")
+    gen.add_argument("--scheduler", metavar="ADDRESS",
+                     help="run on an existing Dask cluster, e.g. tcp://host:8786 (needs the [cluster] extra)")
+    gen.add_argument("--dt", type=_positive_float, metavar="S", help=f"knot spacing in s (default: {defaults.dt:g})")
+    gen.add_argument("--max-iterations", type=_positive_int, metavar="N",
+                     help=f"solver iterations per attempt, a count (default: {defaults.max_iterations})")
+    gen.add_argument("--load-transfer-weight", type=_non_negative_float, metavar="W",
+                     help="weight in N^-2 pulling each sole's vertical force in double support towards a linear transfer "
+                     f"of the body weight (default: {defaults.w_load_transfer:g}; 0 for none; docs/method.md)")
+    gen.add_argument("--min-knee-flexion-rad", type=_non_negative_float, metavar="RAD",
+                     help=f"least bend of the knees at every knot, in rad (default: {defaults.min_knee_flexion:g}; "
+                     "0 for only the URDF's limits; docs/method.md)")
+    _json_option(gen)
+    gen.set_defaults(func=cmd_dataset_generate)
+
+    info = dataset.add_parser("info", help="summarise a dataset (default: the bundled one)")
+    info.add_argument("file", nargs="?", metavar="FILE.h5", help="dataset HDF5 file (default: the bundled one)")
+    _json_option(info)
+    info.set_defaults(func=cmd_dataset_info)
+
+    check = dataset.add_parser("check", help="recompute every motion with inverse dynamics and check it")
+    check.add_argument("file", nargs="?", metavar="FILE.h5",
+                       help="dataset or motion HDF5 file (default: the bundled dataset)")
+    check.add_argument("--verbose", action="store_true", help="include every motion's values in --json")
+    _json_option(check)
+    check.set_defaults(func=cmd_dataset_check)
+
+
+def _primitives_parsers(sub) -> None:
+    from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES
+
+    train = sub.add_parser("train", help="learn movement primitives from a dataset, choosing S and the kernel "
+                           "(needs the [train] extra)")
+    train.add_argument("data", nargs="?", metavar="DATASET.h5", help="dataset HDF5 file (default: the bundled one)")
+    train.add_argument("--out", default="cocomopl-model.npz", metavar="MODEL.npz",
+                       help="output model file; the comparison plot goes beside it as .png (default: %(default)s)")
+    train.add_argument("--primitives", type=_int_list, default=DEFAULT_PRIMITIVES, metavar="S,S,...",
+                       help="candidate numbers of primitives (default: %s)" % ",".join(map(str, DEFAULT_PRIMITIVES)))
+    train.add_argument("--kernels", type=_kernel_list, default=DEFAULT_KERNELS, metavar="K,K,...",
+                       help="candidate time kernels (default: %s)" % ",".join(DEFAULT_KERNELS))
+    train.add_argument("--max-iterations", type=_positive_int, default=DEFAULT_MAX_ITERATIONS, metavar="N",
+                       help="L-BFGS-B iterations per candidate, a count (default: %(default)s)")
+    train.add_argument("--workers", type=_positive_int, metavar="N", help="local worker processes (default: one per core)")
+    _json_option(train)
+    train.set_defaults(func=cmd_train)
+
+    model = sub.add_parser("model", help="inspect a primitives model").add_subparsers(
+        dest="action", required=True, parser_class=_Parser)
+    info = model.add_parser("info", help="summarise a model (default: the bundled one)")
+    info.add_argument("file", nargs="?", metavar="MODEL.npz", help="model file (default: the bundled one)")
+    info.add_argument("--verbose", action="store_true", help="add the model-selection table")
+    _json_option(info)
+    info.set_defaults(func=cmd_model_info)
+
+    generate = sub.add_parser("generate", help="synthesise a walk from step lengths with the primitives")
+    _synthesis_options(generate)
+    generate.add_argument("--out", default="cocomopl-walk.h5", metavar="FILE.h5", help="output motion HDF5 (default: %(default)s)")
+    _json_option(generate)
+    generate.set_defaults(func=cmd_generate)
+
+
+def _simulation_parsers(sub) -> None:
+    walk = sub.add_parser("walk", help="the main job: generate a walk with the primitives, simulate it, write a report")
+    _synthesis_options(walk)
+    walk.add_argument("--out", default="cocomopl-walk", metavar="DIR", help="report folder (default: %(default)s)")
+    walk.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
+    _simulation_options(walk)
+    _json_option(walk)
+    walk.set_defaults(func=cmd_walk)
+
+    reproduce = sub.add_parser("reproduce", help="the paper's experiment: M_gen vs M_opt vs Kajita, simulated; "
+                               "Table I, Figs. 6, 8, 9")
+    reproduce.add_argument("--out", default="cocomopl-reproduce", metavar="DIR", help="report folder (default: %(default)s)")
+    reproduce.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
+    reproduce.add_argument("--data", metavar="DATASET.h5",
+                           help="OC dataset for M_opt's steps and gait states (default: the bundled one)")
+    _simulation_options(reproduce)
+    _json_option(reproduce)
+    reproduce.set_defaults(func=cmd_reproduce)
+
+    simulate = sub.add_parser("simulate", help="run a motion in MuJoCo with joint position control and measure it")
+    simulate.add_argument("file", metavar="MOTION.h5", help="motion HDF5 file (e.g. from 'cocomopl generate')")
+    simulate.add_argument("--motion", metavar="NAME", help="motion name (needed when the file holds several)")
+    simulate.add_argument("--out", metavar="FILE.h5", help="measured motion HDF5 (default: <file>-sim.h5)")
+    simulate.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    _simulation_options(simulate)
+    _json_option(simulate)
+    simulate.set_defaults(func=cmd_simulate)
+
+
+def _tool_parsers(sub) -> None:
+    from cocomopl.export.mjcf import MODEL_FORMATS
+    from cocomopl.export.seqplay import FORMATS
+    from cocomopl.robot import DEFAULT_ROBOT
+
+    export = sub.add_parser("export", help="write a motion for a robot (OpenHRP seqplay or CSV), behind a safety gate")
+    export.add_argument("file", metavar="MOTION.h5", help="motion HDF5 file")
+    export.add_argument("--motion", metavar="NAME", help="motion name (needed when the file holds several)")
+    export.add_argument("--format", choices=FORMATS, required=True,
+                        help="seqplay: .pos .zmp .hip .waist at 5 ms; csv: one table with units in the column names")
+    export.add_argument("--out", required=True, metavar="PREFIX", help="output file prefix, e.g. out/walk -> out/walk.pos ...")
+    export.add_argument("--force", action="store_true", help="export even if the safety gate refuses the motion")
+    _json_option(export)
+    export.set_defaults(func=cmd_export)
+
+    export_model = sub.add_parser("export-model", help="write the robot model cocomopl simulates (MuJoCo MJCF)")
+    export_model.add_argument("--format", choices=MODEL_FORMATS, default=MODEL_FORMATS[0], help="(default: %(default)s)")
+    export_model.add_argument("--out", required=True, metavar="FILE", help="output file, e.g. talos.xml")
+    export_model.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
+                              help="bundled robot name or robot description file (default: %(default)s)")
+    _json_option(export_model)
+    export_model.set_defaults(func=cmd_export_model)
+
+    plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
+    plot.add_argument("file", metavar="MOTION.h5", help="motion or dataset HDF5 file")
+    plot.add_argument("--motion", metavar="NAME", help="motion name (needed when the file holds several)")
+    plot.add_argument("--out", metavar="DIR", help="output folder (default: <motion>-plots)")
+    _json_option(plot)
+    plot.set_defaults(func=cmd_plot)
 
 
 def build_parser() -> argparse.ArgumentParser:
     from cocomopl import __version__
 
-    parser = _Parser(prog="cocomopl", description=__doc__)
+    parser = _Parser(prog="cocomopl", description="Whole-body humanoid walking from optimal control, movement primitives and learning.")
     parser.add_argument("--version", action="version", version=f"cocomopl {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-
-    dataset = sub.add_parser("dataset", help="optimal-control training data").add_subparsers(
-        dest="action", required=True, parser_class=_Parser
-    )
-    gen = dataset.add_parser("generate", help="solve the step OCPs and write the training dataset (HDF5)")
-    gen.add_argument(
-        "--lengths-mm",
-        default=",".join(f"{1000 * x:g}" for x in DEFAULT_LENGTHS_M),
-        help="training step lengths in millimetres, comma-separated (default: the paper's 150,250,300,350,400 "
-        "and 200: %(default)s)",
-    )
-    gen.add_argument(
-        "--extra-transitions-mm",
-        metavar="A-B,...",
-        help="extra transitions between training lengths that are not neighbours, in millimetres, both ways "
-        "(default: 150-250,250-350, those of them whose lengths are trained; '' for none)",
-    )
-    gen.add_argument("--robot", default="talos", help="bundled robot name or description .json (default: talos)")
-    gen.add_argument("--out", default="cocomopl-dataset.h5", help="output HDF5 file (default: %(default)s)")
-    gen.add_argument("--workers", type=_positive_int, help="local worker processes (default: one per core)")
-    gen.add_argument("--scheduler", metavar="ADDRESS", help="run on an existing Dask cluster, e.g. tcp://host:8786")
-    gen.add_argument("--dt", type=_positive_float, help="knot spacing in seconds (default: 0.025)")
-    gen.add_argument("--max-iterations", type=_positive_int, help="solver iterations per attempt (default: 300)")
-    gen.add_argument(
-        "--load-transfer-weight",
-        type=_non_negative_float,
-        metavar="W",
-        help="weight (N^-2) pulling each sole's vertical force in double support towards a linear transfer of the "
-        "body weight between touchdown and lift-off (default: 0.001; 0 for none; README 'Load transfer')",
-    )
-    gen.add_argument(
-        "--min-knee-flexion-rad",
-        type=_non_negative_float,
-        metavar="RAD",
-        help="least bend of the knees, in radians, at every knot (default: 0.6; 0 for only the URDF's limits; "
-        "README 'Knee flexion')",
-    )
-    gen.add_argument("--json", action="store_true", help="print one JSON object")
-    gen.set_defaults(func=cmd_dataset_generate)
-
-    info = dataset.add_parser("info", help="summarise a dataset (default: the bundled one)")
-    info.add_argument("file", nargs="?")
-    info.add_argument("--json", action="store_true", help="print one JSON object")
-    info.set_defaults(func=cmd_dataset_info)
-
-    check = dataset.add_parser("check", help="recompute every motion with inverse dynamics and check it")
-    check.add_argument("file", nargs="?")
-    check.add_argument("--verbose", action="store_true", help="include every motion's values in --json")
-    check.add_argument("--json", action="store_true", help="print one JSON object")
-    check.set_defaults(func=cmd_dataset_check)
-
-    train = sub.add_parser("train", help="learn movement primitives from a dataset, choosing S and the kernel")
-    train.add_argument("data", nargs="?", help="dataset HDF5 (default: the bundled one)")
-    train.add_argument("--out", default="cocomopl-model.npz", help="output model file (default: %(default)s)")
-    train.add_argument("--primitives", type=_int_list, default=list(DEFAULT_PRIMITIVES),
-                       help="candidate numbers of primitives S (default: %s)" % ",".join(map(str, DEFAULT_PRIMITIVES)))
-    train.add_argument("--kernels", type=_kernel_list, default=list(DEFAULT_KERNELS),
-                       help="candidate time kernels (default: %s)" % ",".join(DEFAULT_KERNELS))
-    train.add_argument("--max-iterations", type=_positive_int, default=150, help="L-BFGS-B iterations (default: 150)")
-    train.add_argument("--workers", type=_positive_int, help="local worker processes (default: one per core)")
-    train.add_argument("--json", action="store_true", help="print one JSON object")
-    train.set_defaults(func=cmd_train)
-
-    model = sub.add_parser("model", help="inspect a primitives model").add_subparsers(
-        dest="action", required=True, parser_class=_Parser
-    )
-    minfo = model.add_parser("info", help="summarise a model (default: the bundled one)")
-    minfo.add_argument("file", nargs="?")
-    minfo.add_argument("--verbose", action="store_true", help="include the model-selection table")
-    minfo.add_argument("--json", action="store_true", help="print one JSON object")
-    minfo.set_defaults(func=cmd_model_info)
-
-    gen_walk = sub.add_parser("generate", help="synthesise a walk from step lengths with the primitives")
-    gen_walk.add_argument("--lengths-mm", default=M_GEN_MM,
-                          help="step lengths in millimetres, in order: start, ..., stop (default: the paper's M_gen "
-                          f"{M_GEN_MM})")
-    gen_walk.add_argument("--model", help="model file (default: the bundled one)")
-    gen_walk.add_argument("--out", default="cocomopl-walk.h5", help="output motion HDF5 (default: %(default)s)")
-    gen_walk.add_argument("--dt", type=_positive_float, default=0.025, help="sample spacing in s (default: 0.025)")
-    gen_walk.add_argument("--first-swing", choices=("left", "right"), default="left", help="foot that steps first")
-    gen_walk.add_argument("--strict", action="store_true", help="refuse steps outside the training support")
-    gen_walk.add_argument("--json", action="store_true", help="print one JSON object")
-    gen_walk.set_defaults(func=cmd_generate)
-
-    walk = sub.add_parser("walk", help="the main job: generate a walk with the primitives, simulate it, write a report")
-    walk.add_argument("--lengths-mm", default=M_GEN_MM,
-                      help=f"step lengths in millimetres, start to stop (default: the paper's M_gen {M_GEN_MM})")
-    walk.add_argument("--out", default="cocomopl-walk", help="report folder (default: %(default)s)")
-    walk.add_argument("--model", help="model file (default: the bundled one)")
-    walk.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
-    walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
-    walk.add_argument("--contact-time-constant-s", type=_contact_time_constant, help=CONTACT_HELP)
-    walk.add_argument("--reference-cutoff-hz", type=_reference_cutoff, help=CUTOFF_HELP)
-    walk.add_argument("--json", action="store_true", help="print one JSON object")
-    walk.set_defaults(func=cmd_walk)
-
-    reproduce = sub.add_parser("reproduce", help="the paper's experiment: M_gen vs M_opt vs Kajita, simulated; Table I, Figs. 6, 8, 9")
-    reproduce.add_argument("--out", default="cocomopl-reproduce", help="report folder (default: %(default)s)")
-    reproduce.add_argument("--model", help="model file (default: the bundled one)")
-    reproduce.add_argument("--data", help="OC dataset for M_opt's steps and gait states (default: the bundled one)")
-    reproduce.add_argument("--contact-time-constant-s", type=_contact_time_constant, help=CONTACT_HELP)
-    reproduce.add_argument("--reference-cutoff-hz", type=_reference_cutoff, help=CUTOFF_HELP)
-    reproduce.add_argument("--json", action="store_true", help="print one JSON object")
-    reproduce.set_defaults(func=cmd_reproduce)
-
-    simulate = sub.add_parser("simulate", help="run a motion in MuJoCo with joint position control and measure it")
-    simulate.add_argument("file", help="motion HDF5 (e.g. from 'cocomopl generate')")
-    simulate.add_argument("--motion", help="motion name (needed when the file holds several)")
-    simulate.add_argument("--out", help="measured motion HDF5 (default: <file>-sim.h5)")
-    simulate.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
-    simulate.add_argument("--contact-time-constant-s", type=_contact_time_constant, help=CONTACT_HELP)
-    simulate.add_argument("--reference-cutoff-hz", type=_reference_cutoff, help=CUTOFF_HELP)
-    simulate.add_argument("--json", action="store_true", help="print one JSON object")
-    simulate.set_defaults(func=cmd_simulate)
-
-    export = sub.add_parser("export", help="write a motion for a robot (OpenHRP seqplay or CSV), behind a safety gate")
-    export.add_argument("file", help="motion HDF5")
-    export.add_argument("--motion", help="motion name (needed when the file holds several)")
-    export.add_argument("--format", choices=("seqplay", "csv"), required=True, help="seqplay: .pos .zmp .hip .waist at 5 ms")
-    export.add_argument("--out", required=True, help="output file prefix, e.g. out/walk -> out/walk.pos ...")
-    export.add_argument("--force", action="store_true", help="export even if the safety gate refuses the motion")
-    export.add_argument("--json", action="store_true", help="print one JSON object")
-    export.set_defaults(func=cmd_export)
-
-    plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
-    plot.add_argument("file")
-    plot.add_argument("--motion", help="motion name (needed when the file holds several)")
-    plot.add_argument("--out", help="output folder (default: <motion>-plots)")
-    plot.add_argument("--json", action="store_true", help="print one JSON object")
-    plot.set_defaults(func=cmd_plot)
+    _dataset_parsers(sub)
+    _primitives_parsers(sub)
+    _simulation_parsers(sub)
+    _tool_parsers(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.command_line = command_line(argv)  # recorded in the provenance of what it writes
     try:
         return args.func(args)
     except Error as exc:

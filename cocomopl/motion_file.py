@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -45,6 +46,36 @@ def writable_folder(folder: Path, purpose: str) -> Path:
     except OSError as exc:
         raise Error(f"cannot write to {purpose}: {exc.strerror}") from None
     return folder
+
+
+def output_file(path: str | Path, example_name: str) -> Path:
+    """``path`` as an output file: an :class:`Error` if it is a directory (naming
+    ``example_name`` as a file to give instead) or its folder cannot be written."""
+    path = Path(path)
+    if path.is_dir():
+        raise Error(f"--out {path} is a directory; give a file path such as {path / example_name}")
+    writable_folder(path.parent, f"the folder of --out {path}")
+    return path
+
+
+@contextmanager
+def report_folder(folder: str | Path):
+    """Yield ``folder`` for a report, created if needed; if the block fails or is
+    interrupted, remove what it added (the folder itself if it made it), so a failed run
+    leaves nothing behind."""
+    folder = Path(folder)
+    existed = folder.exists()
+    before = set(folder.iterdir()) if existed and folder.is_dir() else set()
+    writable_folder(folder, f"output folder {folder}")
+    try:
+        yield folder
+    except BaseException:
+        if not existed:
+            shutil.rmtree(folder, ignore_errors=True)
+        else:
+            for added in set(folder.iterdir()) - before:
+                shutil.rmtree(added) if added.is_dir() else added.unlink(missing_ok=True)
+        raise
 
 
 @contextmanager

@@ -1,7 +1,8 @@
 """The stages chained: step lengths -> generated walk (-> simulated walk -> report).
 
-The CLI commands ``generate``, ``walk`` and ``reproduce`` are thin shells around these
-functions, so scripts get the same results as the command line.
+:func:`generate_walk` and :func:`simulate_walk` are the online pipeline;
+:func:`walk_report` (``cocomopl walk``) and :func:`reproduce_report` (``cocomopl
+reproduce``) chain them into report folders, so scripts get what the command line gives.
 """
 
 from __future__ import annotations
@@ -11,11 +12,14 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cocomopl.data import dataset_path as bundled_dataset_path
+from cocomopl.data import model_path as bundled_model_path
 from cocomopl.gait import M_GEN, M_OPT, sequence_specs
 from cocomopl.motion import Motion
-from cocomopl.primitives.estimator import PredictedStep
+from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model
-from cocomopl.robot import Robot
+from cocomopl.provenance import stamp
+from cocomopl.robot import DEFAULT_ROBOT, Robot
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
 from cocomopl.synthesis.world import place_steps
 
@@ -23,6 +27,8 @@ from cocomopl.synthesis.world import place_steps
 # (benchmarks/random_walks.py --seed 1), 25 of the 31 that fell were above it and 12 of the
 # 19 that walked below.
 FILTER_WARNING_M = 0.03
+# s: sample spacing of generated walks, the OC training data's knot spacing
+PLAN_DT = 0.025
 
 
 @dataclass
@@ -30,6 +36,7 @@ class GeneratedWalk:
     """A walk from the primitives, with what it cost to make."""
 
     robot: Robot
+    model: MovementPrimitives
     motion: Motion
     steps: list[PredictedStep]
     generation_s: float  # the primitives alone, after loading
@@ -39,20 +46,23 @@ class GeneratedWalk:
 
 def generate_walk(
     lengths: list[float],
-    model_path: str | Path,
-    dt: float = 0.025,
+    model_path: str | Path | None = None,
+    dt: float | None = None,
     first_swing: str = "left",
     strict: bool = False,
 ) -> GeneratedWalk:
     """Generate and place a walk of step lengths ``lengths`` (m): start, ..., stop.
 
-    Steps outside the training support are warned about (``warnings``), or refused with
+    ``model_path`` defaults to the bundled model and ``dt`` (s) to ``PLAN_DT``.  Steps
+    outside the training support are warned about (``warnings``), or refused with
     ``strict``.  So is a walk that the dynamics filter could not make consistent (its ZMP
     more than ``FILTER_WARNING_M`` RMS from the learned one): most such walks fall.
     """
+    specs = sequence_specs(lengths, first_swing)  # an impossible walk is refused before loading
+    model_path = bundled_model_path(model_path)
     model = load_model(model_path).prepare()
-    robot = Robot(model.metadata_.get("robot", "talos"))
-    specs = sequence_specs(lengths, first_swing)
+    robot = Robot(model.metadata_.get("robot", DEFAULT_ROBOT))
+    dt = PLAN_DT if dt is None else dt
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)
         started = time.perf_counter()
@@ -61,7 +71,7 @@ def generate_walk(
     started = time.perf_counter()
     motion = place_steps(robot, steps, dt)
     placement_s = time.perf_counter() - started
-    motion.meta.update({"model": str(model_path), "lengths_mm": [1000 * x for x in lengths]})
+    motion.meta.update({"model": Path(model_path).name, "lengths_mm": [1000 * x for x in lengths]})
     messages = [str(w.message) for w in caught]
     error = motion.meta["plan_zmp_error_m"]
     if error > FILTER_WARNING_M:
@@ -69,7 +79,13 @@ def generate_walk(
             f"the dynamics filter left the walk's ZMP {100 * error:.1f} cm RMS from the learned one "
             f"(over {100 * FILTER_WARNING_M:.0f} cm): it is not dynamically consistent and will likely fall"
         )
-    return GeneratedWalk(robot, motion, steps, generation_s, placement_s, messages)
+    return GeneratedWalk(robot, model, motion, steps, generation_s, placement_s, messages)
+
+
+def walk_provenance(command: str | None, model_path: str | Path | None = None, **inputs) -> dict:
+    """The provenance of a file made from a generated walk: who made it, when, and the
+    model's (and any other input's) name and checksum."""
+    return stamp(command, ("mujoco", "pin"), model=bundled_model_path(model_path), **inputs)
 
 
 def simulate_walk(
@@ -102,68 +118,74 @@ def simulate_walk(
 
 def walk_report(
     lengths: list[float],
-    out_dir: Path,
-    model_path: str | Path,
+    out_dir: str | Path,
+    model_path: str | Path | None = None,
     stabilizer: bool = True,
     video: bool = True,
     progress: bool = False,
     contact_time_constant: float | None = None,
     reference_cutoff_hz: float | None = None,
+    dt: float | None = None,
+    first_swing: str = "left",
+    strict: bool = False,
+    command: str | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
     ``out_dir`` receives ``motions.h5`` (the generated and the measured motion),
     ``metrics.json``, comparison plots (ZMP, contact forces, knee torques, leg joints),
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view.
-    Returns the metrics with the timings and the files written.
+    A run that fails or is interrupted leaves nothing of its own behind.  ``dt``,
+    ``first_swing`` and ``strict`` are :func:`generate_walk`'s.
+    Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.analysis.viewer import write_html_viewer
-    from cocomopl.motion_file import writable_folder, write_json, write_motions
+    from cocomopl.motion_file import report_folder, write_json, write_motions
 
     started = time.perf_counter()
-    sequence_specs(lengths)  # refuse an impossible walk before anything is written
-    out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")
-    walk = generate_walk(lengths, model_path)
-    rollout, metrics = simulate_walk(
-        walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress, contact_time_constant,
-        reference_cutoff_hz,
-    )
-    motions = {"generated": walk.motion, "simulated": rollout.measured}
-    files = [out_dir / "motions.h5"]
-    write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk"})
-    files += plot_comparison(walk.robot, motions, out_dir)
-    title = f"cocomopl walk {','.join(f'{1000 * x:g}' for x in lengths)} mm"
-    files.append(write_html_viewer(walk.robot, rollout.measured, out_dir / "walk.html", title=title))
-    if video:
-        files.append(out_dir / "walk.mp4")
-    payload = {
-        "lengths_mm": [1000 * x for x in lengths],
-        "steps": [s.spec.name for s in walk.steps],
-        "stabilizer": stabilizer,
-        "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
-        "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
-        **metrics,
-        "generation_s": walk.generation_s,
-        "placement_s": walk.placement_s,
-        "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
-        "warnings": walk.warnings,
-        "files": [str(f) for f in files + [out_dir / "metrics.json"]],
-    }
-    payload["wall_time_s"] = time.perf_counter() - started
-    write_json(out_dir / "metrics.json", payload)
+    provenance = walk_provenance(command, model_path)  # a missing model is refused before anything is written
+    walk = generate_walk(lengths, model_path, dt, first_swing, strict)
+    with report_folder(out_dir) as out_dir:
+        rollout, metrics = simulate_walk(
+            walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress,
+            contact_time_constant, reference_cutoff_hz,
+        )
+        motions = {"generated": walk.motion, "simulated": rollout.measured}
+        files = [out_dir / "motions.h5"]
+        write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
+        files += plot_comparison(walk.robot, motions, out_dir)
+        title = f"cocomopl walk {','.join(f'{1000 * x:g}' for x in lengths)} mm"
+        files.append(write_html_viewer(walk.robot, rollout.measured, out_dir / "walk.html", title=title))
+        if video:
+            files.append(out_dir / "walk.mp4")
+        payload = {
+            "lengths_mm": [1000 * x for x in lengths],
+            "steps": [s.spec.name for s in walk.steps],
+            "stabilizer": stabilizer,
+            "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
+            "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
+            **metrics,
+            "generation_s": walk.generation_s,
+            "placement_s": walk.placement_s,
+            "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
+            "warnings": walk.warnings,
+            "files": [str(f) for f in files + [out_dir / "metrics.json"]],
+            "provenance": provenance,
+        }
+        payload["wall_time_s"] = time.perf_counter() - started
+        write_json(out_dir / "metrics.json", payload)
     return payload
 
 
-
-
 def reproduce_report(
-    out_dir: Path,
-    model_path: str | Path,
-    dataset_path: str | Path,
+    out_dir: str | Path,
+    model_path: str | Path | None = None,
+    dataset_path: str | Path | None = None,
     progress: bool = False,
     contact_time_constant: float | None = None,
     reference_cutoff_hz: float | None = None,
+    command: str | None = None,
 ) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_opt from chained OCPs
     (the steps of the dataset at ``dataset_path``, and the transitions it lacks solved here)
@@ -171,7 +193,7 @@ def reproduce_report(
     stabilizer; the analogue of Table I (mean torques) and of Figs. 6, 8 and 9.
 
     ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` with
-    every metric, and the comparison PNGs.
+    every metric, and the comparison PNGs; the model and dataset default to the bundled ones.
     """
     import dataclasses
 
@@ -181,18 +203,19 @@ def reproduce_report(
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.baselines.kajita import kajita_walk
     from cocomopl.dynamics import GRAVITY
-    from cocomopl.motion_file import read_motions, writable_folder, write_json, write_motions
+    from cocomopl.motion_file import read_motions, report_folder, write_json, write_motions
     from cocomopl.ocp.chained_steps import solve_sequence
 
     started = time.perf_counter()
-    out_dir = writable_folder(Path(out_dir), f"output folder {out_dir}")
+    dataset_path = bundled_dataset_path(dataset_path)
+    provenance = walk_provenance(command, model_path, dataset=dataset_path)
     walk = generate_walk(list(M_GEN), model_path)
     robot = walk.robot
     solve_started = time.perf_counter()
     dataset, attrs = read_motions(dataset_path)
     m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
-    kajita = kajita_walk(robot, [s.spec for s in walk.steps], [np.diff(s.phase_edges) for s in walk.steps], dt=0.025)
+    kajita = kajita_walk(robot, [s.spec for s in walk.steps], [np.diff(s.phase_edges) for s in walk.steps], dt=PLAN_DT)
     # the preview controller needs a standing prelude: align its walking with the others'
     kajita = dataclasses.replace(kajita, t=kajita.t - kajita.meta.get("prelude", 0.0))
     planned = {"MP": walk.motion, "OC": m_opt, "Kajita": kajita}
@@ -211,10 +234,6 @@ def reproduce_report(
         "Kajita planned (inverse dynamics)": mean_torque(kajita),
         "Kajita simulated": metrics["Kajita"]["mean_torque"],
     }
-    motions = {f"{name} planned": m for name, m in planned.items()} | {f"{name} simulated": m for name, m in simulated.items()}
-    write_motions(out_dir / "motions.h5", {k.replace(" ", "_"): m for k, m in motions.items()}, {"robot": robot.name, "producer": "cocomopl reproduce"})
-    files = [out_dir / "motions.h5"]
-    files += plot_comparison(robot, {"MP planned": walk.motion, **{f"{k} simulated": m for k, m in simulated.items()}}, out_dir)
     payload = {
         "table1_mean_torque": table,
         "mp_vs_oc_simulated_mean_torque_difference": table["MP simulated"] / table["OC simulated"] - 1,
@@ -230,11 +249,20 @@ def reproduce_report(
         "metrics": metrics,
         "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
         "reference_cutoff_hz": simulated["MP"].meta["reference_cutoff_hz"],
+        "m_opt_steps": len(m_opt.steps),
+        "m_opt_solved_now": m_opt.meta["solved_now"],
         "m_opt_solve_s": solve_s,
         "m_opt_solver": m_opt.meta.get("solver"),
         "generation_s": walk.generation_s,
-        "files": [str(f) for f in files + [out_dir / "table1.json"]],
+        "provenance": provenance,
     }
-    payload["wall_time_s"] = time.perf_counter() - started
-    write_json(out_dir / "table1.json", payload)
+    motions = {f"{name} planned": m for name, m in planned.items()} | {f"{name} simulated": m for name, m in simulated.items()}
+    with report_folder(out_dir) as out_dir:
+        files = [out_dir / "motions.h5"]
+        write_motions(files[0], {k.replace(" ", "_"): m for k, m in motions.items()},
+                      {"robot": robot.name, "producer": "cocomopl reproduce", **provenance})
+        files += plot_comparison(robot, {"MP planned": walk.motion, **{f"{k} simulated": m for k, m in simulated.items()}}, out_dir)
+        payload["files"] = [str(f) for f in files + [out_dir / "table1.json"]]
+        payload["wall_time_s"] = time.perf_counter() - started
+        write_json(out_dir / "table1.json", payload)
     return payload

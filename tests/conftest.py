@@ -1,4 +1,5 @@
-"""Shared fixtures: the robot and one small dataset, solved once per test session.
+"""Shared fixtures and helpers: the robot, one small dataset solved once per test session,
+the command line run as a user runs it, and a hand-made motion.
 
 The OCPs here are deliberately coarse (50 ms knots, short phases): the tests check
 properties -- dynamics, mirroring, continuity, limits -- not the quality of the gait.  They
@@ -6,11 +7,15 @@ leave out the default knee bend and load transfer, which the coarse knots hold o
 each has its own test on the small cyclic step.
 """
 
+import subprocess
+import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from cocomopl.ocp.action_models import OCPSettings
+from cocomopl.motion import Motion, StepSpec
+from cocomopl.ocp.settings import OCPSettings
 from cocomopl.robot import Robot
 
 SMALL = OCPSettings(
@@ -33,3 +38,44 @@ def small_dataset(tmp_path_factory) -> Path:
     summary = generate(out, (SMALL_LENGTH,), settings=SMALL, workers=2, command="pytest", progress=False)
     assert summary["failed"] == [], summary
     return out
+
+
+def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    """``cocomopl ARGS`` in a new process, as a user runs it."""
+    return subprocess.run([sys.executable, "-m", "cocomopl", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=300)
+
+
+def assert_one_line_error(result: subprocess.CompletedProcess, *words: str) -> None:
+    """The command failed with one line on stderr, no traceback, naming every one of ``words``."""
+    assert result.returncode != 0
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+
+
+def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=None) -> Motion:
+    """A motion on the time grid ``t``; unspecified parts: standing still in the reference
+    posture, zero torques, no force, ZMP at the origin."""
+    n = len(t)
+    wrenches = np.zeros((n, 2, 6))
+    if fz is not None:
+        wrenches[:, :, 2] = fz
+    return Motion(
+        t=np.asarray(t, dtype=float),
+        q=np.tile(robot.q_ref, (n, 1)) if q is None else q,
+        v=np.zeros((n, robot.model.nv)),
+        tau=np.zeros((n, robot.nu)) if tau is None else tau,
+        wrenches=wrenches,
+        contact=wrenches[:, :, 2] > 0,
+        zmp=np.zeros((n, 3)) if zmp is None else zmp,
+        phases=[("ds", 0, n - 1)],
+        impacts=np.array(impacts, dtype=int),
+        steps=[StepSpec("cyclic", 0.2, 0.2)],
+        step_starts=np.array([0]),
+        joint_names=list(robot.joint_names),
+        robot=robot.name,
+        meta=meta or {},
+    )

@@ -1,24 +1,12 @@
 """Bad input: one-line error, non-zero exit, no traceback, no partial file."""
 
-import subprocess
-import sys
+import json
 
 import pytest
 
 from cocomopl.cli import main
 
-
-def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "cocomopl.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120)
-
-
-def assert_one_line_error(result: subprocess.CompletedProcess, *words: str) -> None:
-    assert result.returncode != 0
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1, result.stderr
-    assert "Traceback" not in result.stderr
-    for word in words:
-        assert word in lines[0], lines[0]
+from conftest import assert_one_line_error, run_cli
 
 
 @pytest.mark.parametrize(
@@ -31,6 +19,7 @@ def assert_one_line_error(result: subprocess.CompletedProcess, *words: str) -> N
         ("150,150", ["distinct"]),
         ("", ["no step lengths"]),
         ("5000", ["5000", "beyond reach"]),
+        ("0.15,0.25", ["0.15 mm", "millimetres", "150 mm"]),
     ],
 )
 def test_bad_lengths(tmp_path, lengths, words):
@@ -92,7 +81,7 @@ def test_knee_bend_beyond_the_knee_limits(tmp_path):
 
 def test_unwritable_output():
     result = run_cli("dataset", "generate", "--lengths-mm", "200", "--out", "/proc/cocomopl/d.h5")
-    assert_one_line_error(result, "cannot create the working folder /proc/cocomopl/d.h5.parts")
+    assert_one_line_error(result, "cannot create the folder of --out /proc/cocomopl/d.h5")
 
 
 def test_unreachable_scheduler(tmp_path):
@@ -132,3 +121,47 @@ def test_plot_writes_four_pngs(small_dataset, tmp_path, capsys):
     assert files == ["contact_forces.png", "joint_angles.png", "torques.png", "zmp.png"]
     for name in files:
         assert (tmp_path / "p" / name).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_every_error_has_the_one_prefix():
+    for args in (["walk", "--dt", "x"], ["model", "info", "--bogus"], ["export"], ["nope"]):
+        result = run_cli(*args)
+        assert result.returncode == 2 and result.stderr.startswith("cocomopl: error: "), result.stderr
+
+
+def test_python_m_cocomopl_is_the_command():
+    from cocomopl import __version__
+
+    result = run_cli("--version")
+    assert result.returncode == 0 and result.stdout.strip() == f"cocomopl {__version__}"
+
+
+def test_help_states_units_and_the_defaults_of_the_code(capsys):
+    from cocomopl.pipeline import PLAN_DT
+    from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
+
+    def help_text(*command: str) -> str:
+        with pytest.raises(SystemExit):
+            main([*command, "--help"])
+        return " ".join(capsys.readouterr().out.split())
+
+    generate = help_text("generate")
+    assert f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})" in generate
+    assert "--first-swing" in help_text("walk") and "--strict" in help_text("walk") and "--dt S" in help_text("walk")
+    assert f"a count (default: {DEFAULT_MAX_ITERATIONS})" in help_text("train")
+    dataset = help_text("dataset", "generate")
+    assert "knot spacing in s" in dataset and "a count" in dataset and "in N^-2" in dataset
+    assert "dataset HDF5 file" in help_text("dataset", "info")  # positional files have help
+
+
+def test_model_info_names_the_dataset_without_a_path(capsys):
+    from cocomopl.data import BUNDLED_MODEL
+
+    assert main(["model", "info", "--verbose"]) == 0
+    text = capsys.readouterr().out
+    assert "<- best" in text  # the selection table, in text mode too
+    assert main(["model", "info", "--json"]) == 0
+    info = capsys.readouterr().out
+    for output in (text, info):
+        assert str(BUNDLED_MODEL.parent) not in output and "/data/dataset.h5" not in output
+    assert json.loads(info)["dataset"]["name"] == "dataset.h5"

@@ -15,7 +15,7 @@ from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, default_transitions, traini
 from cocomopl.errors import Error
 from cocomopl.gait import parse_transitions_mm
 from cocomopl.motion_file import read_motions
-from cocomopl.ocp.action_models import OCPSettings
+from cocomopl.ocp.settings import OCPSettings
 
 from conftest import SMALL, SMALL_LENGTH
 
@@ -83,11 +83,12 @@ def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
     assert "inverse_dynamics_residual" in report["failures"]
 
 
+@pytest.mark.slow
 def test_resume_after_kill_recomputes_nothing_finished(tmp_path):
     """Kill a run once a first step is saved; the rerun reuses it, file untouched."""
     out = tmp_path / "resume.h5"
     parts = tmp_path / "resume.h5.parts"
-    cmd = [sys.executable, "-m", "cocomopl.cli", "dataset", "generate", "--lengths-mm", "200,250",
+    cmd = [sys.executable, "-m", "cocomopl", "dataset", "generate", "--lengths-mm", "200,250",
            "--dt", str(SMALL.dt), "--max-iterations", str(SMALL.max_iterations), "--workers", "1",
            "--load-transfer-weight", str(SMALL.w_load_transfer), "--min-knee-flexion-rad", str(SMALL.min_knee_flexion),
            "--out", str(out), "--json"]
@@ -103,6 +104,8 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path):
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     summary = json.loads(result.stdout)
     assert summary["reused"] >= len(saved)
+    # progress names each OCP as it finishes, on stderr, so stdout stays one JSON object
+    assert result.stderr.count("solved ") >= summary["solved"] > 0 and "elapsed" in result.stderr
     assert summary["solved"] + summary["reused"] == summary["ocps"] - len(summary["failed"])
     motions, attrs = read_motions(out)
     assert attrs["command"].startswith("cocomopl dataset generate")
@@ -130,6 +133,7 @@ def test_a_part_solved_with_other_settings_is_solved_again(tmp_path, small_datas
     assert _finished_part(part, SMALL) is None and not part.exists()
 
 
+@pytest.mark.slow
 def test_dask_cluster_path(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     from cocomopl.dataset.generate import generate

@@ -17,35 +17,12 @@ from cocomopl.analysis.report_plots import plot_comparison
 from cocomopl.analysis.viewer import skeleton, write_html_viewer
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.errors import Error
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import Motion
 from cocomopl.motion_file import read_motion
 
+from conftest import synthetic
+
 DATASET = BUNDLED_DATASET
-
-
-def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=None) -> Motion:
-    """A motion on the time grid ``t``; unspecified parts: standing still in the reference
-    posture, zero torques, no force, ZMP at the origin."""
-    n = len(t)
-    wrenches = np.zeros((n, 2, 6))
-    if fz is not None:
-        wrenches[:, :, 2] = fz
-    return Motion(
-        t=np.asarray(t, dtype=float),
-        q=np.tile(robot.q_ref, (n, 1)) if q is None else q,
-        v=np.zeros((n, robot.model.nv)),
-        tau=np.zeros((n, robot.nu)) if tau is None else tau,
-        wrenches=wrenches,
-        contact=wrenches[:, :, 2] > 0,
-        zmp=np.zeros((n, 3)) if zmp is None else zmp,
-        phases=[("ds", 0, n - 1)],
-        impacts=np.array(impacts, dtype=int),
-        steps=[StepSpec("cyclic", 0.2, 0.2)],
-        step_starts=np.array([0]),
-        joint_names=list(robot.joint_names),
-        robot=robot.name,
-        meta=meta or {},
-    )
 
 
 def test_touchdown_delays_match_each_planned_touchdown_to_the_same_soles_nearest(robot):

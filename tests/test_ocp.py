@@ -110,6 +110,7 @@ def test_training_signals_are_36_and_all_vary(robot, motions):
     assert sig["phase_time"][0] == 0.0 and sig["phase_time"][-1] == 2.0
 
 
+@pytest.mark.slow
 def test_phase_timing_is_searched_and_the_cheapest_kept(robot):
     """The solver has no time variable: the single-support duration is searched outside it."""
     from dataclasses import replace

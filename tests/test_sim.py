@@ -14,6 +14,8 @@ from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.rollout import _placed_on_floor, simulate
 from cocomopl.sim.stabilizer import Stabilizer, _leg_maps
 
+from conftest import synthetic
+
 DATASET = BUNDLED_DATASET
 
 
@@ -173,7 +175,6 @@ def test_dcm_feedback_resists_a_push(robot, sim):
 def test_reference_filter_keeps_the_gait_and_removes_the_knot_rate(robot):
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, _reference_joints
 
-    from test_metrics import synthetic
 
     # 25 ms knots of a 1 Hz swing with a 40 Hz zigzag on top, standing still at both ends
     t = np.arange(0.0, 4.0 + 1e-9, 0.025)

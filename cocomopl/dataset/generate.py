@@ -24,12 +24,15 @@ import numpy as np
 from cocomopl.dataset.plan import default_transitions, successors, training_specs
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
+from cocomopl.gait import foot_separation
+from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.motion_file import read_motions, writable_folder, write_motions
-from cocomopl.ocp.action_models import OCPSettings
+from cocomopl.ocp.action_models import knee_bounds
+from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import length_steps, phase_durations, solve_length, solve_transition, to_motion
 from cocomopl.provenance import versions
-from cocomopl.robot import Robot, mirror_motion
+from cocomopl.robot import DEFAULT_ROBOT, Robot, mirror_motion
 
 
 @dataclass
@@ -62,10 +65,6 @@ def length_job(
             motion.meta["duration_search"] = info["duration_search"]
             result.motions[spec] = motion
     return result
-
-
-
-
 
 
 def transition_job(robot_source: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion) -> JobResult:
@@ -106,7 +105,7 @@ class _Executor:
             try:
                 from dask.distributed import Client
             except ImportError:
-                raise Error("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from None
+                raise Error("--scheduler needs the [cluster] extra: pip install 'cocomopl[cluster]' (or pip install -e '.[cluster]')") from None
             try:
                 self.client = Client(scheduler, timeout=10)
             except (OSError, TimeoutError, ValueError) as exc:
@@ -137,11 +136,24 @@ class _Executor:
             self.pool.shutdown(cancel_futures=True)
 
 
+def check_stances(robot: Robot, lengths: tuple[float, ...], settings: OCPSettings) -> None:
+    """Refuse before any solving, with an :class:`Error`, a step length beyond the robot's
+    reach or a knee bend its knees cannot make."""
+    for length in lengths:
+        if length > robot.max_step_length:
+            raise Error(
+                f"step length {length * 1000:g} mm is beyond {robot.name}'s reach "
+                f"(at most {robot.max_step_length * 1000:g} mm, from its description)"
+            )
+        double_support_posture(robot, (-length, foot_separation(robot)), (0.0, 0.0))
+    knee_bounds(robot, settings.min_knee_flexion)
+
+
 def generate(
     output: str | Path,
     lengths: tuple[float, ...],
     extra_transitions: tuple[tuple[float, float], ...] | None = None,
-    robot_name: str = "talos",
+    robot_name: str = DEFAULT_ROBOT,
     settings: OCPSettings | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
@@ -159,6 +171,7 @@ def generate(
     if extra_transitions is None:
         extra_transitions = default_transitions(lengths)
     robot = Robot(robot_name)  # fail fast on a bad robot before any process starts
+    check_stances(robot, lengths, settings)
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
     writable_folder(parts, f"the working folder {parts} of {output}")
@@ -173,17 +186,27 @@ def generate(
     workers = workers or max(1, min(len(lengths), os.cpu_count() or 1))
     executor = _Executor(workers, scheduler)
     start = time.perf_counter()
-    bar = tqdm(total=len(specs), initial=reused, desc="OCPs", unit="ocp", disable=not progress, file=sys.stderr)
+    # no ETA: a length's three OCPs finish together after minutes, transitions in seconds
+    bar = tqdm(total=len(specs), initial=reused, desc="OCPs solved", disable=not progress, file=sys.stderr,
+               bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed} elapsed{postfix}")
+    bar.set_postfix_str(f", on {workers} local processes" if not scheduler else ", on the Dask cluster", refresh=False)
+
+    def note(line: str) -> None:
+        if progress:
+            bar.write(line, file=sys.stderr)
+
     def collect(futures) -> None:
         for future in executor.as_completed(list(futures)):
             result: JobResult = executor.result(future)
             for spec, motion in result.motions.items():
                 write_motions(_part_path(parts, spec), {spec.name: motion}, {"content": "part", "settings": settings.as_dict()})
                 done[spec] = motion
+                solver = motion.meta["solver"]
+                note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
                 bar.update(1)
             for name, attempts in result.failed.items():
                 failed[name] = attempts
-                bar.write(f"did not converge: {name} after {len(attempts)} attempts", file=sys.stderr)
+                note(f"did not converge: {name} after {len(attempts)} attempts")
                 bar.update(1)
 
     try:

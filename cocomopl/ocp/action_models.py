@@ -2,14 +2,12 @@
 
 One function per cost or constraint; :func:`contact_knot`, :func:`impulse_knot` and
 :func:`terminal_knot` assemble them.  Everything a user may tune lives in
-:class:`OCPSettings`.  Constraints are imposed as in the paper's ``J_pen``: a Lagrangian
+:class:`~cocomopl.ocp.settings.OCPSettings`.  Constraints are imposed as in the paper's ``J_pen``: a Lagrangian
 relaxation with quadratic barriers that vanish when the constraint holds, plus hard torque
 bounds in the box-constrained solver.
 """
 
 from __future__ import annotations
-
-from dataclasses import asdict, dataclass
 
 import crocoddyl
 import numpy as np
@@ -17,64 +15,10 @@ import pinocchio as pin
 
 from cocomopl.dynamics import GRAVITY
 from cocomopl.errors import Error
+from cocomopl.ocp.settings import OCPSettings
 from cocomopl.robot import Robot
 
 INF = 1e9  # crocoddyl barriers take finite bounds
-
-
-@dataclass(frozen=True)
-class OCPSettings:
-    """Discretisation, constraint margins and penalty weights of the step OCPs.
-
-    Units are SI.  Weights multiply squared residuals integrated over time (s^-1).
-    """
-
-    dt: float = 0.025
-    ds_duration: float = 0.15
-    ss_duration: float = 0.80
-    # single-support duration search per length, s (0: none).  Off by default: the cost is
-    # flat within 4 % over 0.6-1.1 s, so the search picked 0.7-1.0 s irregularly across
-    # lengths, and the primitives could not interpolate transitions between such gaits
-    ss_search_step: float = 0.0
-    ss_bounds: tuple[float, float] = (0.5, 1.2)
-    start_ds_duration: float = 0.40
-    rest_duration: float = 0.40
-    # 300: the load transfer below makes some steps need more than 200 (stop_200: about 220)
-    max_iterations: int = 300
-    tolerance: float = 1e-3  # relative cost change over 25 iterations that counts as converged
-    friction: float = 0.7
-    zmp_margin: float = 0.02
-    clearance: float = 0.05
-    swing_lateral_gap: float = 0.03
-    w_torque: float = 1e-2
-    w_torque_rate: float = 5e-5  # on the torque rate, (N m / s)^2 s; 0 switches it off
-    w_posture: float = 1.0
-    w_velocity: float = 1e-1
-    w_constraint: float = 1e4
-    w_limits: float = 1e5
-    # on the landing sole's velocity at touchdown, (m/s)^2: high enough that every sole lands
-    # at under 1 cm/s.  The impulse model absorbs any landing speed for free, a stiff
-    # position-controlled robot does not (0.5 m/s gave 4 x the weight in MuJoCo)
-    w_touchdown: float = 1e4
-    w_anchor: float = 1e7
-    position_limit_margin: float = 0.02  # rad
-    velocity_limit_scale: float = 0.9
-    w_placement: float = 1e6
-    w_target: float = 1e5
-    w_swing_guide: float = 1e3
-    # on each sole's vertical force in double support against a linear transfer of the
-    # weight from the sole that lifts next to the one that landed, N^-2 (README "Load
-    # transfer"; 0 switches it off).  On straight knees it raised the generated walk's peak
-    # force over 1.3 x weight; with the knees bent it makes the executed forces smoother
-    w_load_transfer: float = 1e-3
-    # rad: the least bend of every knee, at every knot (0: the URDF's limit and the margin
-    # only).  A nearly straight knee makes a leg vertically stiff on a position-controlled
-    # robot, and the double support then trades load between the soles (README "Knee
-    # flexion"); the bend costs torque
-    min_knee_flexion: float = 0.6
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
 
 def contact_6d(

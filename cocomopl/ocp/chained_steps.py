@@ -19,7 +19,7 @@ from tqdm import tqdm
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, footsteps
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.ocp.action_models import OCPSettings
+from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import solve_transition
 from cocomopl.robot import Robot, mirror_motion
 
@@ -104,12 +104,15 @@ def solve_sequence(
 
     ``motions`` is a dataset's motions by name and ``settings`` its OCP settings: its cyclic
     steps give the gait states, and its solved steps are reused (steps solved here are added
-    to it).  The footsteps are those of
+    to it; their names are in ``meta["solved_now"]``).  The footsteps are those of
     :func:`cocomopl.gait.footsteps`, the same as a generated walk's.
     """
+    known = set(motions)
     placed = []
     for spec, feet in tqdm(list(zip(specs, footsteps(robot, specs))), desc="M_opt steps", disable=not progress, leave=False):
         stance = OTHER_SIDE[spec.swing_side]
         motion = solve_step_motion(robot, spec, motions, settings)
         placed.append(place(motion, feet["start"][stance][:2]))  # a step's frame: stance sole at the origin
-    return concatenate(placed)
+    walk = concatenate(placed)
+    walk.meta["solved_now"] = sorted(set(motions) - known)  # the rest came from ``motions``
+    return walk

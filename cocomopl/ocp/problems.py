@@ -17,7 +17,8 @@ import pinocchio as pin
 from cocomopl.gait import OTHER_SIDE
 from cocomopl.kinematics import inverse_kinematics
 from cocomopl.motion import StepSpec
-from cocomopl.ocp.action_models import OCPSettings, contact_knot, impulse_knot
+from cocomopl.ocp.action_models import contact_knot, impulse_knot
+from cocomopl.ocp.settings import OCPSettings
 from cocomopl.robot import Robot, mirror_state
 
 
@@ -44,8 +45,6 @@ class StepPlan:
     phases: list[Phase]
     x0: np.ndarray
     x_target: np.ndarray | None = None
-
-
 
 
 def translate_state(robot: Robot, x: np.ndarray, dx: float, dy: float) -> np.ndarray:

@@ -21,7 +21,6 @@ from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, foot_separation
 from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.ocp.action_models import OCPSettings
 from cocomopl.ocp.problems import (
     StepPlan,
     build_problem,
@@ -31,6 +30,7 @@ from cocomopl.ocp.problems import (
     translate_state,
     walk_phases,
 )
+from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.torque_rate import with_torque_rate
 from cocomopl.robot import Robot, mirror_state
 

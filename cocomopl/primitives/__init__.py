@@ -5,3 +5,6 @@
 # within 5 minutes on 2 cores (with 13 it took 344 s).
 DEFAULT_PRIMITIVES = (7, 11, 15)
 DEFAULT_KERNELS = ("rbf", "matern32", "matern52")
+# L-BFGS-B iterations per fit, in the API and the CLI alike: the bundled model was trained
+# with it (``cocomopl train``'s default), so the defaults reproduce it.
+DEFAULT_MAX_ITERATIONS = 150

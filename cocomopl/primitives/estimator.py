@@ -12,12 +12,16 @@ arrays the weight GPs need, so that a step costs a handful of small matrix produ
 
 from __future__ import annotations
 
+import functools
+import inspect
 import time
 
 import numpy as np
+from tqdm import tqdm
 
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
+from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
 from cocomopl.primitives import durations as duration_gp
 from cocomopl.primitives.training import (
     TrainingSteps,
@@ -148,14 +152,63 @@ class MovementPrimitives:
     n_grid : int
         Points of the normalised time grid per step.
     max_iterations : int
-        L-BFGS-B iterations.
+        The most L-BFGS-B iterations; the fit stops earlier once converged.
+    verbose : bool
+        Show the progress of :meth:`fit` on stderr: its iterations and the bound.
     """
 
-    def __init__(self, n_primitives: int = 11, kernel: str = "rbf", n_grid: int = 100, max_iterations: int = 3000):
+    def __init__(
+        self,
+        n_primitives: int = 11,
+        kernel: str = "rbf",
+        n_grid: int = 100,
+        max_iterations: int = DEFAULT_MAX_ITERATIONS,
+        verbose: bool = False,
+    ):
         self.n_primitives = n_primitives
         self.kernel = kernel
         self.n_grid = n_grid
         self.max_iterations = max_iterations
+        self.verbose = verbose
+
+    # ------------------------------------------------------------------ parameters
+    @classmethod
+    def _defaults(cls) -> dict:
+        """The parameters, as the names and defaults of ``__init__``'s arguments."""
+        arguments = list(inspect.signature(cls.__init__).parameters.values())[1:]  # after self
+        return {a.name: a.default for a in arguments}
+
+    def get_params(self, deep: bool = True) -> dict:
+        """The estimator's parameters, so that ``MovementPrimitives(**get_params())`` is a copy.
+
+        Parameters
+        ----------
+        deep : bool
+            Accepted for scikit-learn compatibility; no parameter is itself an estimator.
+        """
+        return {name: getattr(self, name) for name in self._defaults()}
+
+    def set_params(self, **params) -> MovementPrimitives:
+        """Set parameters by name, as in scikit-learn; a fitted state is kept until the next fit.
+
+        Raises
+        ------
+        Error
+            If a name is not a parameter.
+        """
+        known = self._defaults()
+        unknown = [name for name in params if name not in known]
+        if unknown:  # checked before any is set, so that a typo leaves the estimator as it was
+            raise Error(f"{type(self).__name__} has no parameter {unknown[0]!r}; it has {', '.join(known)}")
+        for name, value in params.items():
+            setattr(self, name, value)
+        return self
+
+    def __repr__(self) -> str:
+        # as scikit-learn's: the parameters that differ from their defaults, never fitted arrays
+        defaults = self._defaults()
+        changed = [f"{name}={value!r}" for name, value in self.get_params().items() if value != defaults[name]]
+        return f"{type(self).__name__}({', '.join(changed)})"
 
     # ------------------------------------------------------------------ fit
     def fit(self, steps: TrainingSteps) -> MovementPrimitives:
@@ -169,10 +222,13 @@ class MovementPrimitives:
         tau = np.linspace(0.0, 1.0, self.n_grid)
         X = resample(parts, templates, tau, types)
         layout = _SlotLayout(parts, types)
-        result = optimise.maximise_bound(
-            layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations,
-            pca_signal_weights(X, steps.signal_names),
-        )
+        description = f"fitting {self.n_primitives} {self.kernel} primitives"
+        with tqdm(total=self.max_iterations, desc=description, unit="iteration", disable=not self.verbose) as bar:
+            result = optimise.maximise_bound(
+                layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations,
+                pca_signal_weights(X, steps.signal_names),
+                on_iteration=functools.partial(_show_iteration, bar) if self.verbose else None,
+            )
         self.state_ = {
             "tau": tau,
             "signal_names": np.array(steps.signal_names),
@@ -346,6 +402,11 @@ class MovementPrimitives:
         """Explained variance of all signals of ``steps`` (1 is perfect)."""
         X, X_hat = self.reconstruct(steps)
         return _fraction_explained(X, X_hat, slice(None))
+
+
+def _show_iteration(bar: tqdm, bound: float) -> None:
+    bar.set_postfix(bound=f"{bound:.8g}", refresh=False)
+    bar.update()
 
 
 def _condition(w, var, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:

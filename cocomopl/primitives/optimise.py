@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -85,9 +87,22 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     return best[1], best[2]
 
 
-def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: int, signal_weights: np.ndarray) -> dict:
+def maximise_bound(
+    X_slots,
+    mask,
+    d2,
+    tau,
+    S: int,
+    kernel: str,
+    max_iterations: int,
+    signal_weights: np.ndarray,
+    on_iteration: Callable[[float], None] | None = None,
+) -> dict:
     """Fit Q and the kernel hyperparameters, starting from the PCA of the signals scaled by
-    ``signal_weights`` (I,); return the arrays prediction needs."""
+    ``signal_weights`` (I,); return the arrays prediction needs.
+
+    ``on_iteration``, if given, is called after every L-BFGS-B iteration with the bound reached.
+    """
     params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
     flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
     bounds = _bounds(params, tau)
@@ -102,8 +117,12 @@ def maximise_bound(X_slots, mask, d2, tau, S: int, kernel: str, max_iterations: 
         value, grad = objective(jnp.asarray(x))
         return float(value), np.asarray(grad, dtype=float)
 
+    def callback(intermediate_result):  # this parameter name makes SciPy pass the objective too
+        on_iteration(-intermediate_result.fun * scale)
+
     result = minimize(
         fun, np.asarray(flat), jac=True, method="L-BFGS-B", bounds=bounds,
+        callback=None if on_iteration is None else callback,
         options={"maxiter": max_iterations, "maxcor": 30, "ftol": 1e-12, "gtol": 1e-8},
     )
     best = {k: np.asarray(v) for k, v in unravel(jnp.asarray(result.x)).items()}

@@ -3,18 +3,16 @@ and keep the one with the largest free energy (eq. 6), as the paper does."""
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing
+from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
-from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_PRIMITIVES
+from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.training import TrainingSteps
-
-
-def _fit(steps: TrainingSteps, n_primitives: int, kernel: str, max_iterations: int) -> MovementPrimitives:
-    return MovementPrimitives(n_primitives, kernel, max_iterations=max_iterations).fit(steps)
 
 
 def summary_row(model: MovementPrimitives) -> dict:
@@ -29,26 +27,53 @@ def summary_row(model: MovementPrimitives) -> dict:
     }
 
 
+def _candidates(
+    base: MovementPrimitives, n_primitives: Iterable[int], kernels: Iterable[str]
+) -> list[MovementPrimitives]:
+    """Unfitted copies of ``base``, one per (kernel, number of primitives), its other parameters kept."""
+    return [
+        MovementPrimitives(**base.get_params()).set_params(n_primitives=s, kernel=k)
+        for k, s in itertools.product(kernels, n_primitives)
+    ]
+
+
 def select_model(
     steps: TrainingSteps,
-    n_primitives=DEFAULT_PRIMITIVES,
-    kernels=DEFAULT_KERNELS,
-    max_iterations: int = 150,
+    n_primitives: Iterable[int] = DEFAULT_PRIMITIVES,
+    kernels: Iterable[str] = DEFAULT_KERNELS,
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
     workers: int = 1,
     progress: bool = False,
 ) -> tuple[MovementPrimitives, list[dict]]:
     """Fit all candidates (in ``workers`` processes) and return the best model and the table.
 
-    Processes are spawned, not forked: a forked JAX runtime can hang.
+    Parameters
+    ----------
+    steps : the training steps
+    n_primitives, kernels : the candidates are all their combinations
+    max_iterations : the most L-BFGS-B iterations of each fit
+    workers : processes to fit in.  They are spawned, not forked: a forked JAX runtime can hang
+    progress : show a bar of the candidates fitted on stderr.  The candidates' own per-iteration
+        progress (``verbose``) stays off: bars from parallel processes would overwrite each other
+
+    Returns
+    -------
+    best : the candidate with the largest bound
+    rows : :func:`summary_row` of every candidate, ordered by kernel and number of primitives
+
+    Raises
+    ------
+    Error
+        If a candidate cannot be fitted to ``steps``, before any is fitted.
     """
-    candidates = [(s, k) for k in kernels for s in n_primitives]
-    for s, k in candidates:  # refuse impossible settings before any process starts
-        MovementPrimitives(s, k, max_iterations=max_iterations).validate(steps)
-    models = []
+    models = _candidates(MovementPrimitives(max_iterations=max_iterations), n_primitives, kernels)
+    for model in models:
+        model.validate(steps)
+    fitted = []
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(_fit, steps, s, k, max_iterations) for s, k in candidates]
+        futures = [pool.submit(model.fit, steps) for model in models]
         for future in tqdm(as_completed(futures), total=len(futures), desc="fitting", unit="model", disable=not progress):
-            models.append(future.result())
-    models.sort(key=lambda m: (m.kernel, m.n_primitives))
-    best = max(models, key=lambda m: m.bound_)
-    return best, [summary_row(m) for m in models]
+            fitted.append(future.result())
+    fitted.sort(key=lambda m: (m.kernel, m.n_primitives))
+    best = max(fitted, key=lambda m: m.bound_)
+    return best, [summary_row(m) for m in fitted]

@@ -12,6 +12,7 @@ from the description's SRDF) as armature.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -125,20 +126,35 @@ def _sole(robot: Robot, side: str) -> str:
     )
 
 
-def _visuals(visual: pin.GeometryModel | None, jid: int, meshes: dict[str, str]) -> list[str]:
+def _is_attached(g: pin.GeometryObject) -> bool:
+    """Whether the visual geometry goes into the MuJoCo model: MuJoCo reads STL, not DAE."""
+    return bool(g.meshPath) and Path(g.meshPath).suffix.lower() == ".stl"
+
+
+def mesh_files(visual: pin.GeometryModel) -> dict[str, Path]:
+    """The STL files :func:`mjcf` attaches, each by its path relative to their common folder
+    (the robot package's mesh folder, whose layout keeps same-named files apart)."""
+    files = sorted({Path(g.meshPath).resolve() for g in visual.geometryObjects if _is_attached(g)})
+    if not files:
+        return {}
+    root = Path(os.path.commonpath([f.parent for f in files]))
+    return {f.relative_to(root).as_posix(): f for f in files}
+
+
+def _visuals(visual: pin.GeometryModel | None, jid: int, meshes: dict[str, tuple[Path, np.ndarray]]) -> list[str]:
     out = []
     if visual is None:
         return out
     for g in visual.geometryObjects:
-        if g.parentJoint != jid or not g.meshPath or Path(g.meshPath).suffix.lower() != ".stl":
+        if g.parentJoint != jid or not _is_attached(g):
             continue
         name = f"mesh{len(meshes)}"
-        meshes[name] = f'<mesh name="{name}" file="{g.meshPath}" scale="{_vec(g.meshScale)}"/>'
+        meshes[name] = (Path(g.meshPath).resolve(), g.meshScale)
         out.append(f'<geom type="mesh" mesh="{name}" {_pose(g.placement)} class="visual"/>')
     return out
 
 
-def _body(robot: Robot, jid: int, visual, meshes: dict[str, str]) -> str:
+def _body(robot: Robot, jid: int, visual, meshes: dict[str, tuple[Path, np.ndarray]]) -> str:
     model = robot.model
     children = [j for j in range(jid + 1, model.njoints) if model.parents[j] == jid]
     joint = "<freejoint/>" if jid == 1 else _hinge(robot, jid)
@@ -160,12 +176,35 @@ def _actuators(robot: Robot) -> str:
     return "\n".join(lines)
 
 
-def mjcf(robot: Robot, visuals: bool = True, contact_time_constant: float = CONTACT_TIME_CONSTANT) -> str:
-    """The MJCF text of the robot on a flat floor."""
+def _mesh_assets(visual: pin.GeometryModel, meshes: dict[str, tuple[Path, np.ndarray]], mesh_folder: str | None) -> str:
+    """The ``<mesh>`` assets of ``meshes`` (name -> file, scale); see :func:`mjcf` for ``mesh_folder``."""
+    if mesh_folder is None:
+        file_of = {path: str(path) for path, _ in meshes.values()}
+    else:
+        file_of = {path: f"{mesh_folder}/{relative}" for relative, path in mesh_files(visual).items()}
+    return "\n  ".join(
+        f'<mesh name="{name}" file="{file_of[path]}" scale="{_vec(scale)}"/>' for name, (path, scale) in meshes.items()
+    )
+
+
+def mjcf(
+    robot: Robot, visuals: bool = True, contact_time_constant: float = CONTACT_TIME_CONSTANT, mesh_folder: str | None = None
+) -> str:
+    """The MJCF text of the robot on a flat floor.
+
+    Parameters
+    ----------
+    robot : the robot, as the OCPs use it
+    visuals : attach the URDF's STL meshes for rendering
+    contact_time_constant : sole-floor ``solref`` time constant, s
+    mesh_folder : ``None`` names the mesh files by absolute path; a folder (relative to the
+        XML file) names them ``mesh_folder/<path in mesh_files>``, for a copy of the meshes
+    """
     solref = f"{contact_time_constant:.6g} 1"
-    meshes: dict[str, str] = {}
+    meshes: dict[str, tuple[Path, np.ndarray]] = {}
     visual = robot.visual_model() if visuals else None
     body = _body(robot, 1, visual, meshes)
+    assets = _mesh_assets(visual, meshes, mesh_folder) if meshes else ""
     return f"""<mujoco model="{robot.name}">
 <compiler angle="radian" autolimits="true" boundmass="0" boundinertia="0"/>
 <option timestep="{TIMESTEP}" integrator="implicitfast"/>
@@ -178,7 +217,7 @@ def mjcf(robot: Robot, visuals: bool = True, contact_time_constant: float = CONT
 <asset>
   <texture name="grid" type="2d" builtin="checker" rgb1="0.9 0.9 0.9" rgb2="0.75 0.75 0.78" width="512" height="512"/>
   <material name="grid" texture="grid" texrepeat="8 8" reflectance="0.1"/>
-  {chr(10).join(meshes.values())}
+  {assets}
 </asset>
 <worldbody>
 <light pos="0 0 4" dir="0 0 -1" directional="true"/>

@@ -7,13 +7,11 @@ from collections.abc import Sequence
 
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
-from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
+from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep, signal_groups
 
 
 class OutOfSupportWarning(UserWarning):
     """A step's parameters lie outside the training data's support: trust it less."""
-
-
 
 
 def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict: bool = False) -> list[PredictedStep]:
@@ -28,7 +26,7 @@ def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict:
         if not step.in_support:
             message = (
                 f"{spec.name} is {step.distance * 1000:.0f} mm from the nearest training step of its type; "
-                f"predicted joint-angle std up to {step.std[:, :30].max():.3f} rad"
+                f"predicted joint-angle std up to {joint_std_max(model, step):.3f} rad"
             )
             if strict:
                 raise Error(f"refused (--strict): {message}")
@@ -38,3 +36,6 @@ def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict:
     return steps
 
 
+def joint_std_max(model: MovementPrimitives, step: PredictedStep) -> float:
+    """The largest predicted standard deviation of a joint angle over a step, rad."""
+    return float(step.std[:, signal_groups(model.signal_names)["joints"]].max())

@@ -11,7 +11,7 @@ shapes and the durations are scored separately.
 Any generator with ``fit(steps)``, ``predict(spec)`` (an object with ``values`` (T, I)
 and ``durations`` (P,) in s) and ``reconstruct(steps)`` (OC and predicted signals,
 each (K, I, T)) can be evaluated: :class:`MovementPrimitives` and the peers of
-``benchmarks/primitive_peers.py`` are.
+``primitive_peers.py`` are.  The benchmark is its only user, hence its place beside it.
 """
 
 from __future__ import annotations

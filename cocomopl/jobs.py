@@ -1,0 +1,263 @@
+"""One function per ``cocomopl`` command: files in, files and a JSON-able summary out.
+
+The command line only parses its options, calls one of these and prints the summary, so a
+script gets exactly what the command gives.  Each function checks what a user can get
+wrong before it writes anything, and raises :class:`~cocomopl.errors.Error` with one line
+naming the problem.  ``command`` is recorded in the files' provenance (None: "Python API").
+``cocomopl walk`` and ``cocomopl reproduce`` are :func:`cocomopl.pipeline.walk_report` and
+:func:`cocomopl.pipeline.reproduce_report`; ``cocomopl dataset generate`` is
+:func:`generate_dataset`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from cocomopl.data import dataset_path, model_path
+from cocomopl.errors import Error
+from cocomopl.motion_file import output_file, read_motion, read_motions, write_motions
+from cocomopl.provenance import stamp
+from cocomopl.robot import DEFAULT_ROBOT, Robot
+
+
+# ---------------------------------------------------------------------------- stage 1
+def generate_dataset(
+    out: str | Path,
+    lengths: tuple[float, ...],
+    extra_transitions: tuple[tuple[float, float], ...] | None = None,
+    robot: str = DEFAULT_ROBOT,
+    dt: float | None = None,
+    max_iterations: int | None = None,
+    load_transfer_weight: float | None = None,
+    min_knee_flexion: float | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    command: str | None = None,
+    progress: bool = False,
+) -> dict:
+    """Solve the training OCPs for step ``lengths`` (m) and write the dataset to ``out``.
+
+    The OCP settings are :class:`~cocomopl.ocp.action_models.OCPSettings`'s defaults, with
+    each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
+    ``min_knee_flexion`` (rad) that is not None instead.  See
+    :func:`cocomopl.dataset.generate.generate` for the summary returned.
+    """
+    from cocomopl.dataset.generate import generate
+    from cocomopl.ocp.settings import OCPSettings
+
+    overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
+                 "min_knee_flexion": min_knee_flexion}
+    settings = replace(OCPSettings(), **{k: v for k, v in overrides.items() if v is not None})
+    return generate(output_file(out, "dataset.h5"), lengths, extra_transitions, robot, settings, workers, scheduler,
+                    command or "Python API", progress)
+
+
+def check_dataset_file(path: str | Path | None = None, verbose: bool = False) -> dict:
+    """The independent check of a dataset or motion file (default: the bundled dataset);
+    see :func:`cocomopl.dataset.check.check_dataset`.  Without ``verbose`` the per-motion
+    values are left out."""
+    from cocomopl.dataset.check import check_dataset
+    from cocomopl.ocp.settings import OCPSettings
+
+    path = dataset_path(path)
+    motions, attrs = read_motions(path)
+    defaults = OCPSettings()
+    settings = attrs.get("settings", {})
+    friction, dt = float(settings.get("friction", defaults.friction)), float(settings.get("dt", defaults.dt))
+    report = {"file": str(path), **check_dataset(Robot(_robot_of(motions, attrs)), motions, friction, dt)}
+    if not verbose:
+        report.pop("per_motion")
+    return report
+
+
+def _robot_of(motions: dict, attrs: dict) -> str:
+    """The robot a motion file is for: its metadata's, else its motions'."""
+    names = {attrs["robot"]} if "robot" in attrs else {m.robot for m in motions.values()}
+    if len(names) != 1:
+        raise Error(f"the file names {len(names)} robots ({', '.join(sorted(names)) or 'none'}); expected one")
+    return names.pop()
+
+
+# ---------------------------------------------------------------------------- stage 2
+def train_model(
+    out: str | Path,
+    data: str | Path | None = None,
+    n_primitives: tuple[int, ...] | None = None,
+    kernels: tuple[str, ...] | None = None,
+    max_iterations: int | None = None,
+    workers: int = 1,
+    command: str | None = None,
+    progress: bool = False,
+) -> dict:
+    """Fit every candidate number of primitives and time kernel on the dataset ``data``
+    (default: the bundled one), keep the largest free energy, write the model to ``out`` and
+    the comparison plot beside it (``out`` with ``.png``).
+
+    Returns the chosen model's summary and the selection table (``selection``).
+    """
+    from cocomopl import primitives
+    from cocomopl.analysis.plots import plot_model_selection
+    from cocomopl.primitives.model_file import save_model
+    from cocomopl.primitives.selection import select_model
+    from cocomopl.primitives.training import load_training_steps
+
+    require_extra("jax", "train", "cocomopl train")
+    out = output_file(out, "model.npz")
+    data = dataset_path(data)
+    steps = load_training_steps(data)
+    started = time.perf_counter()
+    best, rows = select_model(
+        steps,
+        n_primitives=n_primitives or primitives.DEFAULT_PRIMITIVES,
+        kernels=kernels or primitives.DEFAULT_KERNELS,
+        max_iterations=max_iterations or primitives.DEFAULT_MAX_ITERATIONS,
+        workers=workers,
+        progress=progress,
+    )
+    wall = time.perf_counter() - started
+    provenance = stamp(command, ("numpy", "scipy", "jax", "jaxlib", "pin", "crocoddyl"), dataset=data)
+    metadata = {
+        "command": provenance["command"],
+        "created": provenance["created"],
+        "versions": provenance["versions"],
+        "robot": steps.source["robot"],
+        "dataset": {**steps.source, **provenance["inputs"]["dataset"], "steps": len(steps)},
+        "selection": rows,
+        "training_wall_time_s": wall,
+    }
+    save_model(out, best, metadata)
+    plot = plot_model_selection(rows, out.with_suffix(".png"))
+    return {"output": str(out), "plot": str(plot), "kernel": best.kernel, "n_primitives": best.n_primitives,
+            "bound": best.bound_, "explained_variance": best.explained_variance_, "selection": rows,
+            "wall_time_s": wall}
+
+
+def model_info(path: str | Path | None = None, verbose: bool = False) -> dict:
+    """Summary of a model file (default: the bundled one); ``verbose`` adds the
+    model-selection table.  The training dataset is named by file name and checksum."""
+    from cocomopl.primitives.model_file import model_metadata
+
+    path = model_path(path)
+    meta = model_metadata(path)
+    keys = ("n_primitives", "kernel", "max_iterations", "bound", "explained_variance", "n_grid", "created", "command",
+            "versions", "training_wall_time_s", "checksum", "format_version")
+    info = {"file": path.name, **{k: meta.get(k) for k in keys}, "dataset": _dataset_identity(meta.get("dataset") or {})}
+    if verbose:
+        info["selection"] = meta.get("selection")
+    return info
+
+
+def _dataset_identity(dataset: dict) -> dict:
+    """A model's training dataset without the machine's path (models made before the
+    checksum was recorded keep only the path, of which the name is kept)."""
+    out = {k: v for k, v in dataset.items() if k != "path"}
+    if "name" not in out and "path" in dataset:
+        out["name"] = Path(dataset["path"]).name
+    return out
+
+
+def generate_walk_file(
+    lengths: list[float],
+    out: str | Path,
+    model: str | Path | None = None,
+    dt: float | None = None,
+    first_swing: str = "left",
+    strict: bool = False,
+    command: str | None = None,
+) -> dict:
+    """Generate the walk of step ``lengths`` (m, start ... stop) with the primitives and
+    write it as one motion to ``out`` (HDF5).
+
+    Returns per step its duration, uncertainty and training support, the timings, the
+    dynamics filter's error left, the upper-body correction, and ``warnings``.
+    """
+    from cocomopl.pipeline import generate_walk, walk_provenance
+    from cocomopl.synthesis.step_chain import joint_std_max
+
+    out = output_file(out, "motion.h5")
+    model = model_path(model)
+    walk = generate_walk(lengths, model, dt, first_swing, strict)
+    motion = walk.motion
+    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": "primitives",
+                                               **walk_provenance(command, model)})
+    rows = [{"step": s.spec.name, "duration_s": s.duration, "duration_std_s": float(np.linalg.norm(s.duration_std)),
+             "joint_std_max_rad": joint_std_max(walk.model, s), "in_support": bool(s.in_support),
+             "distance_mm": 1000 * s.distance} for s in walk.steps]
+    return {"output": str(out), "steps": rows, "n_steps": len(rows), "duration_s": motion.duration,
+            "generation_s": walk.generation_s, "placement_s": walk.placement_s,
+            "dynamics_filter_zmp_error_m": motion.meta["plan_zmp_error_m"],
+            "upper_body_limits": motion.meta["upper_body_limits"],
+            "out_of_support": [r["step"] for r in rows if not r["in_support"]], "warnings": walk.warnings}
+
+
+# ---------------------------------------------------------------------------- stage 3 and tools
+def simulate_file(
+    path: str | Path,
+    motion_name: str | None = None,
+    out: str | Path | None = None,
+    stabilizer: bool = True,
+    contact_time_constant: float | None = None,
+    reference_cutoff_hz: float | None = None,
+    command: str | None = None,
+    progress: bool = False,
+) -> dict:
+    """Run a motion of a file in MuJoCo as a position-controlled robot and write the
+    measured motion to ``out`` (default: ``<file>-sim.h5`` in the working folder).
+
+    Returns the metrics against the reference (``fell`` among them) and the settings used.
+    """
+    from cocomopl.pipeline import simulate_walk
+
+    reference = read_motion(path, motion_name)
+    out = output_file(out or f"{Path(path).stem}-sim.h5", "motion.h5")
+    robot = Robot(reference.robot)
+    rollout, metrics = simulate_walk(robot, reference, stabilizer=stabilizer, progress=progress,
+                                     contact_time_constant=contact_time_constant,
+                                     reference_cutoff_hz=reference_cutoff_hz)
+    write_motions(out, {"measured": rollout.measured},
+                  {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
+    return {"output": str(out), "stabilizer": stabilizer,
+            "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
+            "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
+
+
+def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path | None = None) -> dict:
+    """PNGs of one motion of a file (joints, ZMP, contact forces, torques) in the folder
+    ``out`` (default: ``<motion>-plots``)."""
+    from cocomopl.analysis.plots import plot_motion
+
+    motion = read_motion(path, motion_name)
+    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else Path(f"{motion.name}-plots"))
+    return {"files": [str(f) for f in files]}
+
+
+def export_file(path: str | Path, fmt: str, prefix: str | Path, motion_name: str | None = None,
+                force: bool = False) -> dict:
+    """Write a motion for a robot (``fmt`` "seqplay" or "csv", files ``prefix.*``) behind
+    the safety gate: an unsafe motion is refused with its first reason unless ``force``."""
+    from cocomopl.export.safety import check_safe
+    from cocomopl.export.seqplay import export_motion
+
+    motion = read_motion(path, motion_name)
+    prefix = Path(prefix)
+    if prefix.is_dir():
+        raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
+    robot = Robot(motion.robot)
+    reasons = check_safe(robot, motion)
+    if reasons and not force:
+        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
+        raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}; --force exports anyway")
+    files = export_motion(robot, motion, fmt, prefix)
+    return {"files": [str(f) for f in files], "format": fmt, "unsafe": reasons, "forced": bool(reasons)}
+
+
+def require_extra(module: str, extra: str, what: str) -> None:
+    """An :class:`Error` naming the pip extra to install if ``module`` is missing."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        raise Error(f"{what} needs the [{extra}] extra: pip install 'cocomopl[{extra}]' (or pip install -e '.[{extra}]')")

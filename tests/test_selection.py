@@ -1,0 +1,60 @@
+"""Model selection: every candidate is fitted and the one with the largest bound kept.
+
+Two barely fitted candidates (2 and 3 primitives, 5 L-BFGS iterations) on the six cyclic
+steps of 150-250 mm of the bundled dataset: the tests check the selection, not the models.
+"""
+
+import inspect
+
+import pytest
+
+from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
+from cocomopl.errors import Error
+from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
+from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.primitives.model_file import model_metadata
+from cocomopl.primitives.selection import select_model
+from cocomopl.primitives.training import load_training_steps
+
+
+@pytest.fixture(scope="module")
+def cyclic():
+    steps = load_training_steps(BUNDLED_DATASET)
+    return steps.subset(k for k, s in enumerate(steps.specs) if s.kind == "cyclic" and s.start_length <= 0.25)
+
+
+@pytest.fixture(scope="module")
+def selected(cyclic):
+    return select_model(cyclic, n_primitives=(2, 3), kernels=("rbf",), max_iterations=5, workers=1)
+
+
+def test_every_candidate_is_fitted_and_the_largest_bound_wins(selected):
+    best, rows = selected
+    assert [(r["kernel"], r["n_primitives"]) for r in rows] == [("rbf", 2), ("rbf", 3)]
+    winner = max(rows, key=lambda r: r["bound"])
+    assert (best.kernel, best.n_primitives, best.bound_) == (winner["kernel"], winner["n_primitives"], winner["bound"])
+    for r in rows:
+        assert 1 <= r["iterations"] <= 5
+        assert set(r["explained_variance"]) == {"joints", "zmp", "pelvis"}
+        assert all(0 < v <= 1 for v in r["explained_variance"].values())
+
+
+def test_the_best_candidate_keeps_the_selection_settings_and_predicts(selected, cyclic):
+    best, _ = selected
+    assert best.max_iterations == 5 and not best.verbose
+    step = best.predict(cyclic.specs[0])
+    assert step.values.shape == (best.n_grid, len(cyclic.signal_names))
+
+
+def test_an_impossible_candidate_is_refused_before_any_fit(cyclic):
+    with pytest.raises(Error, match="500 primitives cannot exceed"):
+        select_model(cyclic, n_primitives=(2, 500), kernels=("rbf",))
+    with pytest.raises(Error, match="unknown kernel 'cubic'"):
+        select_model(cyclic, n_primitives=(2,), kernels=("rbf", "cubic"))
+
+
+def test_the_defaults_reproduce_the_bundled_model():
+    default = inspect.signature(select_model).parameters["max_iterations"].default
+    assert default == MovementPrimitives().max_iterations == DEFAULT_MAX_ITERATIONS
+    bundled = model_metadata(BUNDLED_MODEL)
+    assert (bundled["max_iterations"], bundled["n_grid"]) == (DEFAULT_MAX_ITERATIONS, MovementPrimitives().n_grid)
