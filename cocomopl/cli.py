@@ -511,7 +511,7 @@ def _tool_parsers(sub) -> None:
     plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
     plot.add_argument("file", metavar="MOTION.h5", help="motion or dataset HDF5 file")
     plot.add_argument("--motion", metavar="NAME", help="motion name (needed when the file holds several)")
-    plot.add_argument("--out", metavar="DIR", help="output folder (default: <motion>-plots)")
+    plot.add_argument("--out", metavar="DIR", help="output folder (default: <step>-plots for one step, else <file>-plots)")
     _json_option(plot)
     plot.set_defaults(func=cmd_plot)
 

@@ -227,11 +227,12 @@ def simulate_file(
 
 def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path | None = None) -> dict:
     """PNGs of one motion of a file (joints, ZMP, contact forces, torques) in the folder
-    ``out`` (default: ``<motion>-plots``)."""
+    ``out`` (default: ``<step>-plots`` for a one-step motion, else ``<file>-plots``)."""
     from cocomopl.analysis.plots import plot_motion
 
     motion = read_motion(path, motion_name)
-    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else Path(f"{motion.name}-plots"))
+    default = motion.name if len(motion.steps) == 1 else Path(path).stem  # a walk's name joins all its steps
+    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else Path(f"{default}-plots"))
     return {"files": [str(f) for f in files]}
 
 

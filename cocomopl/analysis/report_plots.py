@@ -14,7 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cocomopl.analysis.metrics import GRAVITY, knee_joints, vertical_forces
-from cocomopl.analysis.plots import pyplot, save_figure
+from cocomopl.analysis.plots import SIDE_COLOURS, joint_label, legend_outside, palette, pyplot, save_figure
 from cocomopl.dynamics import SIDES
 from cocomopl.motion import Motion
 from cocomopl.motion_file import writable_folder
@@ -22,21 +22,20 @@ from cocomopl.robot import Robot
 
 
 def _colours(motions: dict[str, Motion]) -> dict[str, str]:
-    cycle = ["tab:red", "tab:blue", "tab:cyan", "tab:green", "tab:magenta", "tab:orange", "tab:olive"]
-    return {label: "k" if i == 0 else cycle[(i - 1) % len(cycle)] for i, label in enumerate(motions)}
+    return dict(zip(motions, ["k", *palette(len(motions) - 1)]))
 
 
 def plot_zmp_comparison(motions: dict[str, Motion], path: Path) -> Path:
     """ZMP x and y against time, one line per motion (the paper's Fig. 6)."""
     colours = _colours(motions)
-    fig, axes = pyplot().subplots(2, 1, figsize=(10, 6), sharex=True)
+    fig, axes = pyplot().subplots(2, 1, figsize=(11, 6), sharex=True)
     for label, motion in motions.items():
         for axis, ax in enumerate(axes):
             ax.plot(motion.t, motion.zmp[:, axis], color=colours[label], lw=1, label=label)
     for ax, name in zip(axes, "xy"):
         ax.set_ylabel(f"ZMP {name} (m)")
     axes[0].set_title("ZMP, world frame")
-    axes[0].legend(fontsize=8)
+    legend_outside(axes[0], fontsize=8)
     axes[1].set_xlabel("time (s)")
     return save_figure(fig, Path(path))
 
@@ -44,15 +43,15 @@ def plot_zmp_comparison(motions: dict[str, Motion], path: Path) -> Path:
 def plot_force_comparison(robot: Robot, motions: dict[str, Motion], path: Path) -> Path:
     """Vertical contact force of each foot, one panel per motion, top to bottom (Fig. 8)."""
     weight = robot.mass * GRAVITY
-    fig, axes = pyplot().subplots(len(motions), 1, figsize=(10, 2.4 * len(motions) + 0.6), sharex=True, squeeze=False)
+    fig, axes = pyplot().subplots(len(motions), 1, figsize=(11, 2.4 * len(motions) + 0.6), sharex=True, squeeze=False)
     for ax, (label, motion) in zip(axes[:, 0], motions.items()):
         forces = vertical_forces(motion)
-        for j, (side, colour) in enumerate(zip(SIDES, ("tab:blue", "tab:red"))):
-            ax.step(motion.t, forces[:, j], where="post", color=colour, lw=1, label=f"{side} foot")
+        for j, side in enumerate(SIDES):
+            ax.step(motion.t, forces[:, j], where="post", color=SIDE_COLOURS[side], lw=1, label=f"{side} foot")
         ax.axhline(weight, color="k", ls="--", lw=1, label=f"body weight ({weight:.0f} N)")
         ax.set_ylabel("force (N)")
         ax.set_title(label, fontsize=10)
-    axes[0, 0].legend(fontsize=8, loc="upper right")
+    legend_outside(axes[0, 0], fontsize=8)
     axes[-1, 0].set_xlabel("time (s)")
     return save_figure(fig, Path(path))
 
@@ -61,13 +60,13 @@ def plot_knee_torque_comparison(robot: Robot, motions: dict[str, Motion], path: 
     """Torque of each knee against time, one line per motion (Fig. 9)."""
     colours = _colours(motions)
     knees = knee_joints(robot)
-    fig, axes = pyplot().subplots(2, 1, figsize=(10, 6), sharex=True)
+    fig, axes = pyplot().subplots(2, 1, figsize=(11, 6), sharex=True)
     for ax, side in zip(axes, SIDES):
         for label, motion in motions.items():
             ax.step(motion.t, motion.tau[:, knees[side]], where="post", color=colours[label], lw=1, label=label)
         ax.set_ylabel("torque (N m)")
-        ax.set_title(f"{side} knee ({robot.joint_names[knees[side]]})", fontsize=10)
-    axes[0].legend(fontsize=8)
+        ax.set_title(joint_label(robot, knees[side]), fontsize=10)
+    legend_outside(axes[0], fontsize=8)
     axes[1].set_xlabel("time (s)")
     return save_figure(fig, Path(path))
 
@@ -77,15 +76,16 @@ def plot_leg_joint_comparison(robot: Robot, motions: dict[str, Motion], path: Pa
     colours = _colours(motions)
     legs = {side: robot.leg_chain(side) for side in SIDES}
     rows = max(len(idx) for idx in legs.values())
-    fig, axes = pyplot().subplots(rows, 2, figsize=(12, 1.8 * rows + 0.6), sharex=True, squeeze=False)
+    fig, axes = pyplot().subplots(rows, 2, figsize=(13, 1.8 * rows + 0.6), sharex=True, squeeze=False)
     for column, side in enumerate(SIDES):
         for row, i in enumerate(legs[side]):
             ax = axes[row, column]
             for label, motion in motions.items():
                 ax.plot(motion.t, motion.q[:, 7 + i], color=colours[label], lw=1, label=label)
-            ax.set_title(robot.joint_names[i], fontsize=9)
+            ax.set_title(joint_label(robot, i), fontsize=9)
             ax.set_ylabel("rad")
-    axes[0, 0].legend(fontsize=7)
+    # right of the right column: the motions are the same in every panel
+    legend_outside(axes[0, -1], fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
     return save_figure(fig, Path(path))

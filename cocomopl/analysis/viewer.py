@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from cocomopl.analysis.plots import SIDE_COLOURS, short_title
 from cocomopl.dynamics import SIDES
 from cocomopl.motion import Motion
 from cocomopl.motion_file import atomic_path
@@ -107,7 +108,15 @@ def write_html_viewer(robot: Robot, motion: Motion, path: Path, title: str | Non
     """
     path = Path(path)
     payload = json.dumps(viewer_data(robot, motion, fps), separators=(",", ":")).replace("</", "<\\/")
-    page = _PAGE.replace("__TITLE__", html.escape(title or motion.name or "motion")).replace("__DATA__", payload)
+    fields = {
+        "__TITLE__": html.escape(title or short_title(motion)),
+        "__LEFT__": SIDE_COLOURS["left"],
+        "__RIGHT__": SIDE_COLOURS["right"],
+        "__DATA__": payload,
+    }
+    page = _PAGE
+    for placeholder, text in fields.items():
+        page = page.replace(placeholder, text)
     with atomic_path(path, suffix=".html") as tmp:
         tmp.write_text(page, encoding="utf-8")
     return path
@@ -128,8 +137,8 @@ _PAGE = """<!DOCTYPE html>
 </head>
 <body>
 <header><b>__TITLE__</b>
-  <span class="key" style="background:#1f77b4"></span>left
-  <span class="key" style="background:#d62728"></span>right
+  <span class="key" style="background:__LEFT__"></span>left
+  <span class="key" style="background:__RIGHT__"></span>right
   <span class="key" style="background:#ff7f0e"></span>ZMP
   <span class="key" style="background:#2ca02c"></span>CoM (and its ground projection)
   &mdash; drag to orbit, wheel to zoom, space to play/pause</header>
@@ -148,7 +157,7 @@ const n = D.t.length;
 const canvas = document.getElementById("view"), g = canvas.getContext("2d");
 const slider = document.getElementById("slider"), label = document.getElementById("time");
 const button = document.getElementById("play"), speed = document.getElementById("speed");
-const colour = { left: "#1f77b4", right: "#d62728", centre: "#333" };
+const colour = { left: "__LEFT__", right: "__RIGHT__", centre: "#333" };
 let yaw = -1.2, pitch = 0.3, distance = 2.6, frame = 0, playing = true, last = null, drag = null;
 slider.max = n - 1;
 

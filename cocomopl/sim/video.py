@@ -3,6 +3,7 @@ no display, no GPU needed)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import imageio.v2 as imageio
@@ -14,6 +15,25 @@ from cocomopl.motion_file import atomic_path
 from cocomopl.sim.mujoco_model import SimModel
 
 
+def render_frames(sim: SimModel, qpos: np.ndarray, size: tuple[int, int] = (640, 480)) -> Iterator[np.ndarray]:
+    """Yield an RGB image (height, width, 3) of each state of ``qpos`` (n, nq), seen from
+    the side by a camera that follows the pelvis; ``size`` is (width, height) in pixels."""
+    data = mujoco.MjData(sim.mj)
+    camera = mujoco.MjvCamera()
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    camera.distance, camera.azimuth, camera.elevation = 3.2, 120.0, -15.0
+    with mujoco.Renderer(sim.mj, height=size[1], width=size[0]) as renderer:
+        # shadows and reflections cost 3/4 of the time of a software-rendered frame
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        for q in qpos:
+            data.qpos[:] = q
+            mujoco.mj_kinematics(sim.mj, data)
+            camera.lookat[:] = [data.qpos[0], data.qpos[1], 0.8]
+            renderer.update_scene(data, camera)
+            yield renderer.render()
+
+
 def render_video(
     sim: SimModel,
     times: np.ndarray,
@@ -23,24 +43,19 @@ def render_video(
     size: tuple[int, int] = (640, 480),
     progress: bool = False,
 ) -> Path:
-    """Write an MP4 of the states ``qpos`` (n, nq) at ``times`` (s), seen from the side by a
-    camera that follows the pelvis.  Written atomically."""
+    """Write an MP4 of the states ``qpos`` (n, nq) at ``times`` (s), seen as by
+    :func:`render_frames`.  Written atomically."""
     path = Path(path)
-    data = mujoco.MjData(sim.mj)
-    camera = mujoco.MjvCamera()
-    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-    camera.distance, camera.azimuth, camera.elevation = 3.2, 120.0, -15.0
     frames = np.arange(times[0], times[-1] + 1e-9, 1.0 / fps)
     indices = np.clip(np.searchsorted(times, frames), 0, len(times) - 1)
-    with mujoco.Renderer(sim.mj, height=size[1], width=size[0]) as renderer, atomic_path(path, suffix=path.suffix) as tmp:
-        # shadows and reflections cost 3/4 of the time of a software-rendered frame
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
-        with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", macro_block_size=8) as writer:
-            for k in tqdm(indices, desc="rendering", unit="frame", disable=not progress, leave=False):
-                data.qpos[:] = qpos[k]
-                mujoco.mj_kinematics(sim.mj, data)
-                camera.lookat[:] = [data.qpos[0], data.qpos[1], 0.8]
-                renderer.update_scene(data, camera)
-                writer.append_data(renderer.render())
+    images = tqdm(
+        render_frames(sim, qpos[indices], size), total=len(indices), desc="rendering", unit="frame",
+        disable=not progress, leave=False,
+    )
+    with (
+        atomic_path(path, suffix=path.suffix) as tmp,
+        imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", macro_block_size=8) as writer,
+    ):
+        for image in images:
+            writer.append_data(image)
     return path
