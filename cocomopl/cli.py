@@ -100,7 +100,7 @@ def _int_list(text: str) -> tuple[int, ...]:
 
 
 def _kernel_list(text: str) -> tuple[str, ...]:
-    from cocomopl.primitives.kernels import TIME_KERNELS
+    from cocomopl.primitives import TIME_KERNELS
 
     values = [x.strip() for x in text.split(",") if x.strip()]
     unknown = [x for x in values if x not in TIME_KERNELS]
@@ -259,8 +259,9 @@ def cmd_generate(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from cocomopl.jobs import plot_file
+    from cocomopl.jobs import plot_file, plot_folder
 
+    _note_replacing(args.out or plot_folder(args.file, args.motion))
     payload = plot_file(args.file, args.motion, args.out)
     _emit(args, payload, "\n".join(f"wrote {f}" for f in payload["files"]))
     return 0
@@ -325,8 +326,10 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_export(args) -> int:
+    from cocomopl.export.seqplay import SUFFIXES
     from cocomopl.jobs import export_file
 
+    _note_replacing(*(f"{args.out}{suffix}" for suffix in SUFFIXES[args.format]))
     payload = export_file(args.file, args.format, args.out, args.motion, args.force)
     lines = [f"wrote {f}" for f in payload["files"]] + [f"warning (--force): {r}" for r in payload["unsafe"]]
     _emit(args, payload, "\n".join(lines))
@@ -334,9 +337,9 @@ def cmd_export(args) -> int:
 
 
 def cmd_export_model(args) -> int:
-    from cocomopl.export.mjcf import export_model
+    from cocomopl.export.mjcf import export_model, mesh_folder
 
-    _note_replacing(args.out)
+    _note_replacing(args.out, mesh_folder(Path(args.out)))
     payload = export_model(args.robot, args.format, args.out)
     _emit(args, payload, f"wrote {payload['output']}")
     return 0
@@ -394,7 +397,8 @@ def _dataset_parsers(sub) -> None:
     gen.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
                      help="bundled robot name or robot description file (default: %(default)s)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", metavar="FILE.h5", help="output HDF5 file (default: %(default)s)")
-    gen.add_argument("--workers", type=_positive_int, metavar="N", help="local worker processes (default: one per core)")
+    gen.add_argument("--workers", type=_positive_int, metavar="N",
+                     help="local worker processes (default: one per core, at most one per step length)")
     gen.add_argument("--scheduler", metavar="ADDRESS",
                      help="run on an existing Dask cluster, e.g. tcp://host:8786 (needs the [cluster] extra)")
     gen.add_argument("--dt", type=_positive_float, metavar="S", help=f"knot spacing in s (default: {defaults.dt:g})")

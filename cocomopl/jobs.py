@@ -41,7 +41,7 @@ def generate_dataset(
 ) -> dict:
     """Solve the training OCPs for step ``lengths`` (m) and write the dataset to ``out``.
 
-    The OCP settings are :class:`~cocomopl.ocp.action_models.OCPSettings`'s defaults, with
+    The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults, with
     each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
     ``min_knee_flexion`` (rad) that is not None instead.  See
     :func:`cocomopl.dataset.generate.generate` for the summary returned.
@@ -125,7 +125,8 @@ def train_model(
         "created": provenance["created"],
         "versions": provenance["versions"],
         "robot": steps.source["robot"],
-        "dataset": {**steps.source, **provenance["inputs"]["dataset"], "steps": len(steps)},
+        # the dataset by name and checksum: its path would name a folder of this machine
+        "dataset": {"created": steps.source["created"], **provenance["inputs"]["dataset"], "steps": len(steps)},
         "selection": rows,
         "training_wall_time_s": wall,
     }
@@ -225,14 +226,20 @@ def simulate_file(
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
 
 
+def plot_folder(path: str | Path, motion_name: str | None = None) -> Path:
+    """The default folder of :func:`plot_file`: ``<step>-plots`` for a one-step motion,
+    else ``<file>-plots`` (a walk's name joins all its steps)."""
+    motion = read_motion(path, motion_name)
+    return Path(f"{motion.name if len(motion.steps) == 1 else Path(path).stem}-plots")
+
+
 def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path | None = None) -> dict:
     """PNGs of one motion of a file (joints, ZMP, contact forces, torques) in the folder
-    ``out`` (default: ``<step>-plots`` for a one-step motion, else ``<file>-plots``)."""
+    ``out`` (default: :func:`plot_folder`)."""
     from cocomopl.analysis.plots import plot_motion
 
     motion = read_motion(path, motion_name)
-    default = motion.name if len(motion.steps) == 1 else Path(path).stem  # a walk's name joins all its steps
-    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else Path(f"{default}-plots"))
+    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else plot_folder(path, motion_name))
     return {"files": [str(f) for f in files]}
 
 

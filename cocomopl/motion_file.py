@@ -2,8 +2,8 @@
 
 Layout (``h5dump -n`` shows it)::
 
-    /                       attrs: format="cocomopl", format_version, content ("dataset"|"motions"),
-                                   robot, created, command, versions (JSON), ... (JSON-able metadata)
+    /                       attrs: format="cocomopl", format_version, content ("dataset" or "part"; none for motion files),
+                                   robot, producer, created, command, versions (JSON), inputs (JSON), ...
     /motions/<name>/        attrs: robot, joint_names (JSON), steps (JSON), meta (JSON)
         t (n,)  q (n, nq)  v (n, nv)  tau (n, nu)  wrenches (n, 2, 6)  contact (n, 2)
         zmp (n, 3)  impacts (m,)  step_starts (s,)  phase_kind (p,)  phase_first (p,)  phase_last (p,)

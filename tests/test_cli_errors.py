@@ -1,6 +1,7 @@
 """Bad input: one-line error, non-zero exit, no traceback, no partial file."""
 
 import json
+import sys
 
 import pytest
 
@@ -87,7 +88,7 @@ def test_unwritable_output():
 def test_unreachable_scheduler(tmp_path):
     result = run_cli("dataset", "generate", "--lengths-mm", "200", "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "Dask scheduler")
-    assert not (tmp_path / "d.h5").exists()
+    assert list(tmp_path.iterdir()) == []  # not even the working folder of the parts
 
 
 @pytest.mark.parametrize("command", ["info", "check"])
@@ -165,3 +166,20 @@ def test_model_info_names_the_dataset_without_a_path(capsys):
     for output in (text, info):
         assert str(BUNDLED_MODEL.parent) not in output and "/data/dataset.h5" not in output
     assert json.loads(info)["dataset"]["name"] == "dataset.h5"
+
+
+@pytest.mark.parametrize(
+    "missing, args, extra",
+    [
+        (["jax"], ["train", "--kernels", "rbf"], "train"),
+        (["dask", "dask.distributed"], ["dataset", "generate", "--lengths-mm", "200", "--scheduler", "tcp://127.0.0.1:9"],
+         "cluster"),
+    ],
+)
+def test_a_missing_extra_is_named_in_one_line(monkeypatch, tmp_path, capsys, missing, args, extra):
+    for module in missing:  # as if the extra were not installed
+        monkeypatch.setitem(sys.modules, module, None)
+    assert main([*args, "--out", str(tmp_path / "out")]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("cocomopl: error: ") and f"[{extra}] extra" in error and len(error.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []

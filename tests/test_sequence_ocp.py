@@ -26,3 +26,32 @@ def test_a_chained_walk_is_one_consistent_motion_on_its_footsteps(robot, small_d
     # the walk ends with the feet side by side, three step lengths ahead
     soles = sole_placements(robot, walk.q[-1:])[0]
     assert soles[:, 0] == pytest.approx([3 * SMALL_LENGTH] * 2, abs=5e-3)
+
+
+def test_a_missing_transition_is_solved_for_the_robot_given_not_one_rebuilt_by_name(monkeypatch, tmp_path):
+    """A robot from a description file whose name is no bundled robot: the transition the
+    dataset lacks is solved with that very Robot object."""
+    import dataclasses
+    import json
+
+    from cocomopl.data import BUNDLED_DATASET
+    from cocomopl.motion import StepSpec
+    from cocomopl.ocp import chained_steps
+    from cocomopl.robot import Robot
+    from cocomopl.robot.description import DESCRIPTIONS_DIR
+
+    description = json.loads((DESCRIPTIONS_DIR / "talos.json").read_text()) | {"name": "my_talos"}
+    (tmp_path / "my_talos.json").write_text(json.dumps(description))
+    robot = Robot(str(tmp_path / "my_talos.json"))
+    motions, attrs = read_motions(BUNDLED_DATASET)
+    spec = StepSpec("transition", 0.25, 0.35)
+    motions.pop(spec.name)
+    used = []
+
+    def solve_transition(robot_used, settings, right, cyclic_from, cyclic_to):
+        used.append(robot_used)
+        return dataclasses.replace(cyclic_from, steps=[right]), []
+
+    monkeypatch.setattr(chained_steps, "solve_transition", solve_transition)
+    motion = chained_steps.solve_step_motion(robot, spec, motions, attrs["settings"])
+    assert used == [robot] and motion.steps == [spec] and motions[spec.name] is motion

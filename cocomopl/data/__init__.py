@@ -17,17 +17,17 @@ BUNDLED_MODEL = Path(__file__).parent / "model.npz"
 
 def dataset_path(path: str | Path | None = None) -> Path:
     """``path``, or the bundled dataset when None; an :class:`Error` if that is missing."""
-    if path is not None:
-        return Path(path)
-    if not BUNDLED_DATASET.exists():
-        raise Error(f"the bundled dataset is missing ({BUNDLED_DATASET.name}); generate one with 'cocomopl dataset generate'")
-    return BUNDLED_DATASET
+    return _given_or_bundled(path, BUNDLED_DATASET, "cocomopl dataset generate")
 
 
 def model_path(path: str | Path | None = None) -> Path:
     """``path``, or the bundled model when None; an :class:`Error` if that is missing."""
+    return _given_or_bundled(path, BUNDLED_MODEL, "cocomopl train")
+
+
+def _given_or_bundled(path: str | Path | None, bundled: Path, command: str) -> Path:
     if path is not None:
         return Path(path)
-    if not BUNDLED_MODEL.exists():
-        raise Error(f"the bundled model is missing ({BUNDLED_MODEL.name}); train one with 'cocomopl train'")
-    return BUNDLED_MODEL
+    if not bundled.exists():  # a source checkout without the data files
+        raise Error(f"the bundled {bundled.stem} is missing ({bundled.name}); make one with '{command}'")
+    return bundled

@@ -157,7 +157,7 @@ def generate(
     settings: OCPSettings | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
-    command: str = "",
+    command: str = "Python API",
     progress: bool = True,
 ) -> dict:
     """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them;
@@ -174,7 +174,13 @@ def generate(
     check_stances(robot, lengths, settings)
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
-    writable_folder(parts, f"the working folder {parts} of {output}")
+    workers = workers or max(1, min(len(lengths), os.cpu_count() or 1))
+    executor = _Executor(workers, scheduler)  # an unreachable cluster is refused before anything is written
+    try:
+        writable_folder(parts, f"the working folder {parts} of {output}")
+    except Error:
+        executor.close()
+        raise
     specs = training_specs(lengths, extra_transitions)
     done: dict[StepSpec, Motion] = {}
     for spec in specs:
@@ -183,8 +189,6 @@ def generate(
             done[spec] = motion
     reused = len(done)
     failed: dict[str, list] = {}
-    workers = workers or max(1, min(len(lengths), os.cpu_count() or 1))
-    executor = _Executor(workers, scheduler)
     start = time.perf_counter()
     # no ETA: a length's three OCPs finish together after minutes, transitions in seconds
     bar = tqdm(total=len(specs), initial=reused, desc="OCPs solved", disable=not progress, file=sys.stderr,

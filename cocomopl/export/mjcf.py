@@ -105,7 +105,7 @@ def export_model(robot_source: str, fmt: str, out: str | Path, contact_time_cons
     Returns
     -------
     dict
-        JSON-able: ``path``, ``format``, ``robot``, ``meshes`` (folder), ``mesh_files``,
+        JSON-able: ``output`` (the XML), ``format``, ``robot``, ``meshes`` (folder), ``mesh_files``,
         ``nq``, ``nv``, ``nu``, ``joints`` (hinges), ``mass_kg``, ``contact_time_constant_s``.
 
     Raises

@@ -31,6 +31,7 @@ from cocomopl.motion_file import atomic_path, writable_folder
 from cocomopl.robot import Robot
 
 FORMATS = ("seqplay", "csv")
+SUFFIXES = {"seqplay": (".pos", ".zmp", ".hip", ".waist"), "csv": (".csv",)}  # of the files each writes
 
 
 def _lines(t: np.ndarray, *columns: np.ndarray) -> str:

@@ -21,7 +21,7 @@ from tqdm import tqdm
 
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
-from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
+from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, TIME_KERNELS
 from cocomopl.primitives import durations as duration_gp
 from cocomopl.primitives.training import (
     TrainingSteps,
@@ -253,8 +253,6 @@ class MovementPrimitives:
         """Raise :class:`Error` if these settings cannot be fitted to ``steps``."""
         if not isinstance(self.n_primitives, (int, np.integer)) or self.n_primitives < 1:
             raise Error(f"the number of primitives must be a positive whole number, not {self.n_primitives!r}")
-        from cocomopl.primitives.kernels import TIME_KERNELS
-
         if self.kernel not in TIME_KERNELS:
             raise Error(f"unknown kernel {self.kernel!r}; choose one of {', '.join(TIME_KERNELS)}")
         if self.n_primitives > self.n_grid:

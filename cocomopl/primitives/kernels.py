@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-TIME_KERNELS = ("rbf", "matern32", "matern52")
+from cocomopl.primitives import TIME_KERNELS
 
 
 def time_kernel(name: str, r, alpha, ell):
