@@ -7,6 +7,8 @@ leave out the default knee bend and load transfer, which the coarse knots hold o
 each has its own test on the small cyclic step.
 """
 
+import fcntl
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -32,11 +34,18 @@ def robot() -> Robot:
 
 @pytest.fixture(scope="session")
 def small_dataset(tmp_path_factory) -> Path:
+    """The OCPs of one length on coarse knots, solved once for all test processes: the
+    first xdist worker to get here solves them while the others wait on the lock."""
     from cocomopl.dataset.generate import generate
 
-    out = tmp_path_factory.mktemp("dataset") / "small.h5"
-    summary = generate(out, (SMALL_LENGTH,), settings=SMALL, workers=2, command="pytest", progress=False)
-    assert summary["failed"] == [], summary
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if "PYTEST_XDIST_WORKER" in os.environ else base  # this run's, common to its workers
+    out = shared / "small-dataset.h5"
+    with open(shared / "small-dataset.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not out.exists():
+            summary = generate(out, (SMALL_LENGTH,), settings=SMALL, workers=2, command="pytest", progress=False)
+            assert summary["failed"] == [], summary
     return out
 
 

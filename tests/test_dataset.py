@@ -8,6 +8,7 @@ import sys
 import time
 
 import h5py
+import numpy as np
 import pytest
 
 from cocomopl.cli import main
@@ -83,35 +84,45 @@ def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
     assert "inverse_dynamics_residual" in report["failures"]
 
 
-@pytest.mark.slow
-def test_resume_after_kill_recomputes_nothing_finished(tmp_path):
-    """Kill a run once a first step is saved; the rerun reuses it, file untouched."""
+def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset):
+    """A run killed (SIGKILL) while it solves leaves the steps saved before it untouched and
+    writes no dataset; the same run again reuses them and solves only the rest.  The saved
+    steps are the small dataset's cyclic and stop steps, as a killed earlier run leaves them."""
+    from cocomopl.motion_file import write_motions
+
     out = tmp_path / "resume.h5"
     parts = tmp_path / "resume.h5.parts"
-    cmd = [sys.executable, "-m", "cocomopl", "dataset", "generate", "--lengths-mm", "200,250",
-           "--dt", str(SMALL.dt), "--max-iterations", str(SMALL.max_iterations), "--workers", "1",
-           "--load-transfer-weight", str(SMALL.w_load_transfer), "--min-knee-flexion-rad", str(SMALL.min_knee_flexion),
-           "--out", str(out), "--json"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + 240
-    while time.time() < deadline and not list(parts.glob("*.h5")):
-        time.sleep(0.5)
+    parts.mkdir()
+    solved, _ = read_motions(small_dataset)
+    names = [f"{kind}_{SMALL_LENGTH * 1000:g}_L" for kind in ("cyclic", "stop")]
+    for name in names:
+        write_motions(parts / f"{name}.h5", {name: solved[name]}, {"content": "part", "settings": SMALL.as_dict()})
+    saved = {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")}
+    # the small dataset's settings (its phase durations are no CLI options), as the CLI calls it
+    script = ("import json, sys; from cocomopl.dataset.generate import generate; from cocomopl.ocp.settings import "
+              "OCPSettings; print(json.dumps(generate(sys.argv[1], (float(sys.argv[2]),), settings=OCPSettings("
+              "**json.loads(sys.argv[3])), workers=1, command='cocomopl dataset generate (test)')))")
+    cmd = [sys.executable, "-c", script, str(out), str(SMALL_LENGTH), json.dumps(SMALL.as_dict())]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    progress = b""
+    while b"elapsed" not in progress:  # the progress bar is up: the OCPs are being solved
+        chunk = os.read(proc.stderr.fileno(), 4096)
+        assert chunk, "the first run ended before it started solving"
+        progress += chunk
+    time.sleep(2.0)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
-    saved = {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")}
-    assert saved, "no step finished before the deadline"
     assert not out.exists()
+    assert {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")} == saved  # untouched, nothing half-written
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     summary = json.loads(result.stdout)
-    assert summary["reused"] >= len(saved)
+    assert (summary["reused"], summary["solved"], summary["failed"]) == (2, 1, [])
     # progress names each OCP as it finishes, on stderr, so stdout stays one JSON object
-    assert result.stderr.count("solved ") >= summary["solved"] > 0 and "elapsed" in result.stderr
-    assert summary["solved"] + summary["reused"] == summary["ocps"] - len(summary["failed"])
+    assert f"solved start_{SMALL_LENGTH * 1000:g}_L in" in result.stderr and "elapsed" in result.stderr
     motions, attrs = read_motions(out)
-    assert attrs["command"].startswith("cocomopl dataset generate")
-    for name in saved:  # finished parts were read, not rewritten: same modification time
-        part = parts / name
-        assert not part.exists() or part.stat().st_mtime_ns == saved[name]
+    assert len(motions) == 6 and attrs["command"].startswith("cocomopl dataset generate")
+    for name in names:  # the saved steps, reused as they were
+        np.testing.assert_array_equal(motions[name].q, solved[name].q)
 
 
 def test_a_part_solved_with_other_settings_is_solved_again(tmp_path, small_dataset):
@@ -133,15 +144,22 @@ def test_a_part_solved_with_other_settings_is_solved_again(tmp_path, small_datas
     assert _finished_part(part, SMALL) is None and not part.exists()
 
 
-@pytest.mark.slow
-def test_dask_cluster_path(tmp_path):
+def test_dask_cluster_path(tmp_path, small_dataset):
+    """The OCPs run on a Dask cluster.  The small dataset's cyclic and stop steps are left
+    as parts of an interrupted run, so the cluster solves only the start step."""
     distributed = pytest.importorskip("dask.distributed")
     from cocomopl.dataset.generate import generate
+    from cocomopl.motion_file import write_motions
 
+    out = tmp_path / "dask.h5"
+    parts = tmp_path / "dask.h5.parts"
+    parts.mkdir()
+    solved, _ = read_motions(small_dataset)
+    for name in (f"cyclic_{SMALL_LENGTH * 1000:g}_L", f"stop_{SMALL_LENGTH * 1000:g}_L"):
+        write_motions(parts / f"{name}.h5", {name: solved[name]}, {"content": "part", "settings": SMALL.as_dict()})
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        out = tmp_path / "dask.h5"
         summary = generate(out, (SMALL_LENGTH,), settings=SMALL, scheduler=cluster.scheduler_address, progress=False)
-    assert summary["failed"] == []
+    assert (summary["failed"], summary["reused"], summary["solved"]) == ([], 2, 1)
     motions, attrs = read_motions(out)
     assert len(motions) == 6
     assert attrs["scheduler"] == cluster.scheduler_address

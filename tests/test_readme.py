@@ -3,35 +3,38 @@
 Every line that starts with ``cocomopl`` in a ```bash block of README.md runs, in order, in
 one fresh folder (later lines read the files earlier ones wrote), and must exit 0; a line
 with ``--json`` must print one JSON object.  The ```python block runs too, in the same
-folder.  The examples that take minutes are shrunk, each by one rule of ``SHRINK``:
+folder.  The examples that take minutes are shrunk or skipped:
 
-* ``cocomopl dataset generate``: one step length, 200 mm (its start, cyclic and stop
-  steps), on 50 ms knots without the knee bend and load transfer (as tests/conftest.py's
-  small dataset);
-* ``cocomopl train``: one candidate, 3 primitives and the RBF kernel, 2 iterations;
-* the Python block: ``max_iterations=2`` for the fit.
+* ``cocomopl dataset generate`` is skipped: the bundled dataset, which the same command made
+  with the default lengths, is copied to its ``--out`` for the lines after it.  The command
+  itself is run by tests/test_dataset.py (killed and resumed) and tests/test_cli_errors.py
+  (bad input);
+* ``cocomopl train`` (``SHRINK``): one candidate, 3 primitives and the RBF kernel, 2
+  iterations;
+* the Python block (``PYTHON_SHRINK``): 3 primitives and 2 iterations for the fit.
 
-Everything else runs exactly as written.
+Everything else runs exactly as written; ``cocomopl reproduce``'s report is also checked
+against the project's claims on the bundled data.
 """
 
 import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
+import h5py
 import pytest
+
+from cocomopl.data import BUNDLED_DATASET
 
 README = Path(__file__).parents[1] / "README.md"
 
-SHRINK = {
-    ("dataset", "generate"): ["--lengths-mm", "200", "--dt", "0.05", "--load-transfer-weight", "0",
-                              "--min-knee-flexion-rad", "0"],
-    ("train",): ["--primitives", "3", "--kernels", "rbf", "--max-iterations", "2"],
-}
-PYTHON_SHRINK = (r"max_iterations=\d+", "max_iterations=2")
+SHRINK = {("train",): ["--primitives", "3", "--kernels", "rbf", "--max-iterations", "2"]}
+PYTHON_SHRINK = {r"n_primitives=\d+": "n_primitives=3", r"max_iterations=\d+": "max_iterations=2"}
 
 
 def blocks(language: str) -> list[str]:
@@ -70,14 +73,45 @@ def test_the_readme_has_examples():
 @pytest.mark.slow
 @pytest.mark.parametrize("args", commands(), ids=lambda a: " ".join(a[:4]))
 def test_command_example_runs(args, folder):
+    if args[1:3] == ["dataset", "generate"]:
+        out = folder / args[args.index("--out") + 1]
+        out.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(BUNDLED_DATASET, out)
+        return
     result = run([sys.executable, "-m", "cocomopl", *shrunk(args)[1:]], folder)
     assert result.returncode == 0, f"{shlex.join(args)} exited {result.returncode}: {result.stderr[-2000:]}"
     if "--json" in args:
-        assert isinstance(json.loads(result.stdout), dict)
+        payload = json.loads(result.stdout)
+        assert isinstance(payload, dict)
+        if args[1] == "reproduce":
+            check_reproduce_report(payload, folder / "cocomopl-reproduce")
 
 
 @pytest.mark.slow
 def test_python_example_runs(folder):
-    code = re.sub(*PYTHON_SHRINK, "\n".join(blocks("python")))
+    code = "\n".join(blocks("python"))
+    for pattern, replacement in PYTHON_SHRINK.items():
+        code = re.sub(pattern, replacement, code)
     result = run([sys.executable, "-c", code], folder)
     assert result.returncode == 0, result.stderr[-2000:]
+
+
+def check_reproduce_report(payload: dict, out: Path) -> None:
+    """``cocomopl reproduce``'s report and the project's claims on the bundled data."""
+    assert payload == json.loads((out / "table1.json").read_text())
+    table = payload["table1_mean_torque"]
+    for method in ("OC", "MP", "Kajita"):
+        assert table[f"{method} simulated"] == payload["metrics"][method]["mean_torque"] > 0
+        assert not payload["metrics"][method]["fell"]  # the bundled M_gen, M_opt and Kajita walks stand
+        per_sole = payload["planned_force_variation_over_weight"][method]
+        # |d(F_left + F_right)| <= |dF_left| + |dF_right|: the sum varies at most twice the larger sole
+        assert 0 < payload["planned_total_force_variation_over_weight"][method] <= 2 * per_sole
+    # docs/results.md: MP within 5 % of OC's simulated torque, its contact forces smoother than Kajita's
+    assert abs(payload["mp_vs_oc_simulated_mean_torque_difference"]) < 0.05
+    assert payload["mp_smoother_than_kajita"] is True
+    # the bundled dataset holds every step of M_opt: none is solved again
+    assert payload["m_opt_steps"] == 9 and payload["m_opt_solved_now"] == []
+    assert payload["provenance"]["inputs"]["dataset"]["name"] == "dataset.h5"
+    with h5py.File(out / "motions.h5") as f:
+        assert set(f["motions"]) == {f"{m}_{kind}" for m in ("MP", "OC", "Kajita") for kind in ("planned", "simulated")}
+    assert {"zmp_comparison.png", "force_comparison.png", "knee_torque_comparison.png"} <= {p.name for p in out.iterdir()}

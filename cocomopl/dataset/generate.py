@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import json
+import multiprocessing
 import os
 import shutil
 import sys
@@ -111,7 +112,8 @@ class _Executor:
             except (OSError, TimeoutError, ValueError) as exc:
                 raise Error(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         else:
-            self.pool = cf.ProcessPoolExecutor(max_workers=workers)
+            # spawned, not forked: a fork of a process that runs JAX or Dask threads can deadlock
+            self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
     def submit(self, fn, *args):
         if self.scheduler:
@@ -193,7 +195,7 @@ def generate(
     # no ETA: a length's three OCPs finish together after minutes, transitions in seconds
     bar = tqdm(total=len(specs), initial=reused, desc="OCPs solved", disable=not progress, file=sys.stderr,
                bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed} elapsed{postfix}")
-    bar.set_postfix_str(f", on {workers} local processes" if not scheduler else ", on the Dask cluster", refresh=False)
+    bar.set_postfix_str(f"on {workers} local processes" if not scheduler else "on the Dask cluster", refresh=False)
 
     def note(line: str) -> None:
         if progress:
