@@ -227,9 +227,12 @@ def simulate_file(
 
 
 def plot_folder(path: str | Path, motion_name: str | None = None) -> Path:
-    """The default folder of :func:`plot_file`: ``<step>-plots`` for a one-step motion,
-    else ``<file>-plots`` (a walk's name joins all its steps)."""
-    motion = read_motion(path, motion_name)
+    """The default folder of :func:`plot_file` for a motion of a file."""
+    return _plots_of(path, read_motion(path, motion_name))
+
+
+def _plots_of(path: str | Path, motion) -> Path:
+    """``<step>-plots`` for a one-step motion, else ``<file>-plots`` (a walk's name joins all its steps)."""
     return Path(f"{motion.name if len(motion.steps) == 1 else Path(path).stem}-plots")
 
 
@@ -239,7 +242,7 @@ def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path 
     from cocomopl.analysis.plots import plot_motion
 
     motion = read_motion(path, motion_name)
-    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else plot_folder(path, motion_name))
+    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else _plots_of(path, motion))
     return {"files": [str(f) for f in files]}
 
 
