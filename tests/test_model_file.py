@@ -1,12 +1,19 @@
-"""Model files: exact round trip, atomic writes, no unpickling, one clear error per bad file."""
+"""Model files: exact round trip, atomic writes, no unpickling, one clear error per bad file.
 
+Bad files are made from the bundled model (no training): damaged, foreign or other-version
+files, and hand-edited ones whose checksum was recomputed, so that only the checks of
+content refuse them.
+"""
+
+import copy
 import json
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from cocomopl.data import BUNDLED_DATASET
+from cocomopl.data import BUNDLED_DATASET, model_path
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives import model_file
@@ -14,14 +21,23 @@ from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.model_file import (
     FORMAT_VERSION,
     REQUIRED,
+    checksum,
     load_model,
     model_metadata,
     save_model,
 )
 
+from conftest import assert_one_line_error, run_cli
+
 DATASET = BUNDLED_DATASET
 SPEC = StepSpec("cyclic", 0.25, 0.25, "left")
-METADATA = {"command": "pytest", "versions": {"numpy": np.__version__}, "selection": [[3, "rbf", 0.9]]}
+# the selection table as train writes it, with NumPy scalars, which are written as JSON numbers
+METADATA = {
+    "command": "pytest",
+    "versions": {"numpy": np.__version__},
+    "selection": [{"n_primitives": np.int64(3), "kernel": "rbf", "bound": np.float64(12.5), "iterations": 30,
+                   "explained_variance": {"joints": np.float64(0.9), "zmp": 0.8, "pelvis": 0.7}}],
+}
 
 
 @pytest.fixture(scope="module")
@@ -40,18 +56,29 @@ def saved(model, tmp_path) -> Path:
     return path
 
 
-def resave(path: Path, out: Path, change_arrays=None, change_meta=None) -> Path:
-    """Copy a model file, changing its arrays and/or metadata but not the stored checksum."""
-    with np.load(path, allow_pickle=False) as data:
+@pytest.fixture(scope="module")
+def bundled() -> tuple[dict, dict]:
+    """The bundled model's arrays and metadata, read once."""
+    with np.load(model_path(None), allow_pickle=False) as data:
         arrays = {name: data[name] for name in data.files}
-    meta = json.loads(arrays.pop(model_file.METADATA_KEY).item())
-    if change_arrays:
-        change_arrays(arrays)
-    if change_meta:
-        change_meta(meta)
+    return arrays, json.loads(arrays.pop(model_file.METADATA_KEY).item())
+
+
+def write(out: Path, arrays: dict, metadata_text: str) -> Path:
     with open(out, "wb") as f:
-        np.savez(f, **arrays, __metadata__=np.array(json.dumps(meta)))
+        np.savez(f, **arrays, __metadata__=np.array(metadata_text))
     return out
+
+
+def edited(bundled, out: Path, change, fix_checksum: bool = True) -> Path:
+    """The bundled model with ``change(arrays, metadata)`` made to copies of them, written to
+    ``out`` with the checksum recomputed (by hand-editing, as it were), or the old one kept."""
+    arrays = {name: a.copy() for name, a in bundled[0].items()}
+    meta = copy.deepcopy(bundled[1])
+    change(arrays, meta)
+    if fix_checksum:
+        meta["checksum"] = checksum(arrays)
+    return write(out, arrays, json.dumps(meta))
 
 
 def test_required_matches_fitted_state(model):
@@ -132,98 +159,231 @@ def test_unfitted_model_is_not_saved(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def _truncated(saved: Path, out: Path) -> Path:
-    data = saved.read_bytes()
+def assert_refused(path: Path, *words: str) -> None:
+    """Both readers refuse ``path`` with one line ``PATH: ...`` naming every one of ``words``."""
+    for read in (load_model, model_metadata):
+        with pytest.raises(Error) as info:
+            read(path)
+        message = str(info.value)
+        assert "\n" not in message
+        assert message.startswith(f"{path}: "), message
+        for word in words:
+            assert word in message, message
+
+
+# ---------------------------------------------------------------------------- damaged or foreign files
+def _truncated(bundled, out: Path) -> Path:
+    data = model_path(None).read_bytes()
     out.write_bytes(data[: len(data) // 2])
     return out
 
 
-def _random_bytes(saved: Path, out: Path) -> Path:
+def _random_bytes(bundled, out: Path) -> Path:
     out.write_bytes(np.random.default_rng(0).bytes(4096))
     return out
 
 
-def _foreign_npz(saved: Path, out: Path) -> Path:
+def _foreign_npz(bundled, out: Path) -> Path:
     with open(out, "wb") as f:
         np.savez(f, x=np.arange(3))
     return out
 
 
-def _npy(saved: Path, out: Path) -> Path:
+def _npy(bundled, out: Path) -> Path:
     with open(out, "wb") as f:
         np.save(f, np.arange(3))
     return out
 
 
-def _other_format(saved: Path, out: Path) -> Path:
-    return resave(saved, out, change_meta=lambda meta: meta.update(format="something-else"))
+def _other_format(bundled, out: Path) -> Path:
+    return edited(bundled, out, lambda arrays, meta: meta.update(format="something-else"))
 
 
-def _bad_metadata_json(saved: Path, out: Path) -> Path:
-    with np.load(saved, allow_pickle=False) as data:
-        arrays = {name: data[name] for name in data.files}
-    arrays["__metadata__"] = np.array("{not json")
-    with open(out, "wb") as f:
-        np.savez(f, **arrays)
-    return out
+def _metadata_text(text: str):
+    """A maker of the bundled arrays with ``text`` as the metadata string."""
+    return lambda bundled, out: write(out, bundled[0], text)
 
 
-def _wrong_version(saved: Path, out: Path) -> Path:
-    return resave(saved, out, change_meta=lambda meta: meta.update(format_version=FORMAT_VERSION - 1))
+def _wrong_version(bundled, out: Path) -> Path:
+    return edited(bundled, out, lambda arrays, meta: meta.update(format_version=FORMAT_VERSION - 1))
 
 
-def _tampered(saved: Path, out: Path) -> Path:
-    def change(arrays):
-        arrays["chi"] = arrays["chi"] + 1.0
-
-    return resave(saved, out, change_arrays=change)
+def _tampered(bundled, out: Path) -> Path:
+    return edited(bundled, out, lambda arrays, meta: arrays.update(chi=arrays["chi"] + 1.0), fix_checksum=False)
 
 
-def _missing_array(saved: Path, out: Path) -> Path:
-    def change(arrays):
-        del arrays["dur_K_inv"]
+# id: (maker of the file or None for none, words of the message)
+BAD_FILES = {
+    "missing": (None, ["model file not found"]),
+    "directory": ("dir", ["a directory, not a cocomopl model file"]),
+    "truncated": (_truncated, ["not a readable NPZ file"]),
+    "random_bytes": (_random_bytes, ["not a readable NPZ file"]),
+    "foreign_npz": (_foreign_npz, ["not a cocomopl model file"]),
+    "npy": (_npy, ["not a cocomopl model file"]),
+    "other_format": (_other_format, ["not a cocomopl model file"]),
+    "metadata_not_json": (_metadata_text("{not json"), ["not a cocomopl model file"]),
+    # json.loads recurses: this raises RecursionError, not a decoding error
+    "metadata_nested_deeply": (_metadata_text("[" * 100_000 + "]" * 100_000), ["not a cocomopl model file"]),
+    "wrong_version": (_wrong_version, [f"format version {FORMAT_VERSION - 1};", f"reads version {FORMAT_VERSION}",
+                                       "cocomopl train"]),
+    "tampered": (_tampered, ["corrupted, checksum mismatch"]),
+}
 
-    def fix_checksum(meta):
-        with np.load(saved, allow_pickle=False) as data:
-            kept = {name: data[name] for name in data.files if name not in ("dur_K_inv", "__metadata__")}
-        meta["checksum"] = model_file.checksum(kept)
 
-    return resave(saved, out, change_arrays=change, change_meta=fix_checksum)
-
-
-def _missing_metadata_entry(saved: Path, out: Path) -> Path:
-    return resave(saved, out, change_meta=lambda meta: meta.pop("bound"))
-
-
-@pytest.mark.parametrize(
-    "make, words",
-    [
-        (None, ["model file not found"]),
-        ("dir", ["is a directory"]),
-        (_truncated, ["not a readable NPZ file"]),
-        (_random_bytes, ["not a readable NPZ file"]),
-        (_foreign_npz, ["not a cocomopl model file"]),
-        (_npy, ["not a cocomopl model file"]),
-        (_other_format, ["not a cocomopl model file"]),
-        (_bad_metadata_json, ["not a cocomopl model file"]),
-        (_wrong_version, [f"has format version {FORMAT_VERSION - 1}; this cocomopl reads version {FORMAT_VERSION}", "cocomopl train"]),
-        (_tampered, ["is corrupted: checksum mismatch"]),
-        (_missing_array, ["lacks the model arrays dur_K_inv"]),
-        (_missing_metadata_entry, ["incomplete or invalid metadata", "bound"]),
-    ],
-)
-def test_bad_files(saved, make, words):
-    path = saved.parent / "bad.npz"
+@pytest.mark.parametrize("make, words", BAD_FILES.values(), ids=BAD_FILES.keys())
+def test_bad_files(bundled, tmp_path, make, words):
+    path = tmp_path / "bad.npz"
     if make == "dir":
         path.mkdir()
     elif make is not None:
-        make(saved, path)
-    readers = [load_model] if make is _missing_metadata_entry else [load_model, model_metadata]
-    for read in readers:
-        with pytest.raises(Error) as info:
-            read(path)
-        message = str(info.value)
-        assert "\n" not in message
-        assert str(path) in message
-        for word in words:
-            assert word in message
+        make(bundled, path)
+    assert_refused(path, *words)
+
+
+# ---------------------------------------------------------------------------- hand-edited content
+def replace(name: str, new):
+    """An edit: array ``name`` becomes ``new(array)``."""
+    return lambda arrays, meta: arrays.update({name: new(arrays[name])})
+
+
+def assign(name: str, index, value):
+    """An edit: ``array[index] = value`` in array ``name``."""
+
+    def change(arrays, meta):
+        arrays[name][index] = value
+
+    return change
+
+
+def set_meta(key: str, value):
+    return lambda arrays, meta: meta.update({key: value})
+
+
+def drop_type(type_: str):
+    """An edit: the step type ``type_`` removed from every array with a step-type axis."""
+
+    def change(arrays, meta):
+        g = list(arrays["types"]).index(type_)
+        for name, (_, axes, _) in model_file._ARRAYS.items():
+            if "G" in axes:
+                arrays[name] = np.delete(arrays[name], g, axis=axes.index("G"))
+
+    return change
+
+
+def swap_signals(i: int, j: int):
+    def change(arrays, meta):
+        names = arrays["signal_names"]
+        names[[i, j]] = names[[j, i]]
+
+    return change
+
+
+# id: (edit, words of the message).  The bundled model has 15 primitives, 100 grid points,
+# 36 signals (30 joints, then the ZMP and the pelvis angles) and 10 step types, the first
+# cyclic_left with training steps of 150 mm and up.
+EDITS = {
+    "missing_array": (lambda arrays, meta: arrays.pop("dur_K_inv"), ["lacks the model arrays dur_K_inv"]),
+    "wrong_shape": (replace("chi", lambda a: a[:, :, :3]),
+                    ["array 'chi' has shape (36, 15, 3), expected (36, 15, 10)",
+                     "for 36 signals, 15 primitives and 10 step types"]),
+    "wrong_ndim": (replace("m", lambda a: a[None]),
+                   ["array 'm' has shape (1, 15, 100), expected 2 dimensions (primitives, grid points)"]),
+    "floats_as_integers": (replace("tau", lambda a: a.astype(np.int64)),
+                           ["array 'tau' has dtype int64, expected floating-point numbers"]),
+    "counts_as_floats": (replace("n_phases", lambda a: a.astype(float)),
+                         ["array 'n_phases' has dtype float64, expected integers"]),
+    "names_as_bytes": (replace("signal_names", lambda a: a.astype(bytes)),
+                       ["array 'signal_names' has dtype |S17, expected unicode text"]),
+    "flags_as_floats": (replace("unconditioned", lambda a: a.astype(float)),
+                        ["array 'unconditioned' has dtype float64, expected booleans"]),
+    "nan": (assign("C", (0, 0, 0, 0, 0), np.nan), ["array 'C' holds nan at (0, 0, 0, 0, 0), expected finite numbers"]),
+    "inf": (assign("dur_K_inv", (1, 0, 2, 2), -np.inf), ["array 'dur_K_inv' holds -inf at (1, 0, 2, 2)"]),
+    "primitives_in_metadata": (set_meta("n_primitives", 11),
+                               ["array 'm' has shape (15, 100), expected (11, 100)",
+                                "for 11 primitives and 100 grid points"]),
+    "primitives_in_one_array": (replace("alpha_t", lambda a: a[:-1]),
+                                ["array 'alpha_t' has shape (14,), expected (15,) for 15 primitives"]),
+    "grid_in_metadata": (set_meta("n_grid", 50), ["array 'tau' has shape (100,), expected (50,) for 50 grid points"]),
+    "negative_length_scale": (assign("ell_t", 3, -0.1), ["array 'ell_t' holds -0.1 at (3,), expected positive values"]),
+    "zero_kernel_variance": (assign("alpha_w", (2, 1), 0.0), ["array 'alpha_w' holds 0 at (2, 1), expected positive"]),
+    "negative_distance": (assign("support_radius", 4, -1.0), ["array 'support_radius' holds -1", "non-negative"]),
+    "unknown_kernel": (set_meta("kernel", "cubic"),
+                       ["metadata 'kernel' is", '"cubic", expected one of rbf, matern32, matern52']),
+    "count_as_text": (set_meta("n_primitives", "15"),
+                      ["metadata 'n_primitives' is", '"15", expected a whole number >= 1']),
+    "count_as_boolean": (set_meta("n_iter", True), ["metadata 'n_iter' is true, expected a whole number >= 0"]),
+    "one_grid_point": (set_meta("n_grid", 1), ["metadata 'n_grid' is 1, expected a whole number >= 2"]),
+    "nan_bound": (set_meta("bound", float("nan")), ["metadata 'bound' is NaN, expected a finite number"]),
+    "missing_metadata": (lambda arrays, meta: meta.pop("bound"), ["metadata lacks 'bound'"]),
+    "signal_group_scores": (lambda arrays, meta: meta["explained_variance"].pop("zmp"),
+                            ["metadata 'explained_variance' is", "expected finite numbers for joints, zmp, pelvis"]),
+    "unknown_robot": (set_meta("robot", "nao"), ["metadata 'robot': unknown robot 'nao'"]),
+    "robot_as_number": (set_meta("robot", 3), ["metadata 'robot' is 3, expected a robot name"]),
+    "selection_row": (lambda arrays, meta: meta["selection"][1].update(iterations="many"),
+                      ["metadata 'selection' row 2 'iterations' is", '"many", expected a whole number >= 0']),
+    "dataset_as_text": (set_meta("dataset", "bundled"), ["metadata 'dataset' is", '"bundled", expected an object']),
+    "dataset_steps": (lambda arrays, meta: meta["dataset"].update(steps=63),
+                      ["metadata 'dataset' 'steps' is 63, but the arrays hold 64 training steps"]),
+    "signal_order": (swap_signals(0, 30), ["array 'signal_names' must end with zmp_x, zmp_y, zmp_z, pelvis_roll"]),
+    "unconditioned_joint": (assign("unconditioned", 0, True),
+                            ["array 'unconditioned' must mark the signals zmp_x, zmp_y, zmp_z and no other"]),
+    "unknown_type": (assign("types", 0, "hop_left"), ["array 'types' holds 'hop_left', not a step type"]),
+    "stop_without_its_second_part": (drop_type("stop_left_part2"),
+                                     ["array 'types' holds 'stop_left_part1' but not 'stop_left_part2'"]),
+    "phase_count": (assign("n_phases", 0, 3), ["array 'n_phases' gives cyclic_left 3 phases, expected 2"]),
+    "phase_boundaries": (assign("boundaries", (0, 1), 1.5),
+                         ["array 'boundaries' row 0 (cyclic_left) must rise strictly from 0 to 1 over its 3 values"]),
+    "mask_gap": (assign("mask", (0, 0), 0.0), ["array 'mask' row 0 (cyclic_left) must be 1 for at least one"]),
+    "grid_reversed": (replace("tau", lambda a: a[::-1].copy()), ["array 'tau' must rise strictly from 0 to 1"]),
+    "duration_of_hours": (assign("dur_mean", (0, 1), 10.0),
+                          ["the model predicts 2.2e+04 s for phase 1 of its training step cyclic_150_L",
+                           "expected 0.001 to 60 s"]),
+    "huge_weights": (replace("chi", lambda a: a * 1e6), ["the model predicts", "of its training step cyclic_150_L",
+                                                         "expected at most 100 (rad or m)"]),
+    "primitives_vanish_at_start": (assign("m", (slice(None), 0), 0.0), ["the model predicts nan for signal"]),
+}
+
+
+@pytest.mark.parametrize("edit, words", EDITS.values(), ids=EDITS.keys())
+def test_hand_edited_files(bundled, tmp_path, edit, words):
+    path = edited(bundled, tmp_path / "bad.npz", edit)
+    assert_refused(path, *words)
+
+
+@pytest.mark.parametrize("case", ["wrong_shape", "unknown_kernel", "duration_of_hours"])
+def test_cli_refuses_hand_edited_files(bundled, tmp_path, case):
+    bad = edited(bundled, tmp_path / "bad.npz", EDITS[case][0])
+    for args in (["model", "info", str(bad)], ["generate", "--model", str(bad), "--out", str(tmp_path / "x.h5")]):
+        result = run_cli(*args, cwd=tmp_path)
+        assert result.returncode == 2, result.stderr
+        assert result.stderr.startswith(f"cocomopl: error: {bad}: "), result.stderr
+        assert_one_line_error(result, *EDITS[case][1])
+    assert [p.name for p in tmp_path.iterdir()] == ["bad.npz"]
+
+
+def test_bundled_model_passes(bundled):
+    model = load_model(model_path(None))
+    assert model.n_primitives == bundled[1]["n_primitives"] and model.metadata_["robot"] == "talos"
+    assert np.all(np.isfinite(model.predict(StepSpec("stop", 0.25, 0.0, "right")).values))
+    # reading checks every array and predicts every training step, yet stays fast
+    arrays, meta = bundled
+    seconds = []
+    for _ in range(3):
+        started = time.perf_counter()
+        model_file._validate(model_path(None), meta, arrays)
+        seconds.append(time.perf_counter() - started)
+    assert min(seconds) < 0.25, seconds
+
+
+def test_sound_edits_pass(bundled, tmp_path):
+    """Edits that keep the model sound pass: the checks are of content, not of bytes."""
+
+    def change(arrays, meta):
+        meta.update(command="by hand", extra={"note": [1, 2]})
+        arrays["chi"] += 1e-3  # a millimetre or milliradian on every signal
+        arrays["dur_mean"][0] += 0.1
+
+    path = edited(bundled, tmp_path / "edited.npz", change)
+    model = load_model(path)
+    assert model.metadata_["command"] == "by hand" and model.metadata_["extra"] == {"note": [1, 2]}
