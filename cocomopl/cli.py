@@ -28,16 +28,20 @@ class _Parser(argparse.ArgumentParser):
 # ---------------------------------------------------------------------------- option types
 def _number(text: str) -> float:
     try:
+        if not text.isascii():  # float() reads other scripts' digits, e.g. Arabic-Indic ones
+            raise ValueError
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number in ASCII digits") from None
 
 
 def _positive_int(text: str) -> int:
     try:
+        if not text.isascii():
+            raise ValueError
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number in ASCII digits") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
     return value
@@ -91,6 +95,8 @@ def _training_lengths_mm(text: str) -> tuple[float, ...]:
 
 def _int_list(text: str) -> tuple[int, ...]:
     try:
+        if not text.isascii():
+            raise ValueError
         values = [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of whole numbers") from None
@@ -330,8 +336,12 @@ def cmd_export(args) -> int:
     from cocomopl.jobs import export_file
 
     _note_replacing(*(f"{args.out}{suffix}" for suffix in SUFFIXES[args.format]))
-    payload = export_file(args.file, args.format, args.out, args.motion, args.force)
+    from cocomopl.export.safety import margins_text
+
+    payload = export_file(args.file, args.format, args.out, args.motion, args.force, args.robot)
     lines = [f"wrote {f}" for f in payload["files"]] + [f"warning (--force): {r}" for r in payload["unsafe"]]
+    if not payload["unsafe"]:
+        lines.append(f"safety gate passed: {margins_text(payload['gate'])}")
     _emit(args, payload, "\n".join(lines))
     return 0
 
@@ -500,7 +510,11 @@ def _tool_parsers(sub) -> None:
     export.add_argument("--format", choices=FORMATS, required=True,
                         help="seqplay: .pos .zmp .hip .waist at 5 ms; csv: one table with units in the column names")
     export.add_argument("--out", required=True, metavar="PREFIX", help="output file prefix, e.g. out/walk -> out/walk.pos ...")
-    export.add_argument("--force", action="store_true", help="export even if the safety gate refuses the motion")
+    export.add_argument("--force", action="store_true",
+                        help="export even if the safety gate refuses the motion (never NaN or infinite values)")
+    export.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
+                        help="the robot whose limits the gate checks: bundled name or description file; the motion must "
+                        "be for it (default: %(default)s)")
     _json_option(export)
     export.set_defaults(func=cmd_export)
 

@@ -114,9 +114,11 @@ MIN_LENGTH_M = 0.05
 def length_mm_to_m(item: str) -> float:
     """One step length given in millimetres, in metres; an :class:`Error` unless a number of millimetres within ``MIN_LENGTH_M``..``MAX_LENGTH_M``."""
     try:
+        if not str(item).isascii():  # float() reads other scripts' digits, e.g. Arabic-Indic ones
+            raise ValueError
         value = float(item)
     except ValueError:
-        raise Error(f"step length {item!r} is not a number (millimetres expected)") from None
+        raise Error(f"step length {item!r} is not a number in ASCII digits (millimetres expected)") from None
     if not math.isfinite(value) or value <= 0:
         raise Error(f"step length {item!r} mm must be a positive finite number")
     if value / 1000 < MIN_LENGTH_M:

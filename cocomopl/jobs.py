@@ -19,9 +19,9 @@ import numpy as np
 
 from cocomopl.data import dataset_path, model_path
 from cocomopl.errors import Error
-from cocomopl.motion_file import output_file, read_motion, read_motions, write_motions
+from cocomopl.motion_file import is_dataset, load_robot, output_file, read_motion, read_motions, write_motions
 from cocomopl.provenance import stamp
-from cocomopl.robot import DEFAULT_ROBOT, Robot
+from cocomopl.robot import DEFAULT_ROBOT
 
 
 # ---------------------------------------------------------------------------- stage 1
@@ -58,28 +58,23 @@ def generate_dataset(
 
 def check_dataset_file(path: str | Path | None = None, verbose: bool = False) -> dict:
     """The independent check of a dataset or motion file (default: the bundled dataset);
-    see :func:`cocomopl.dataset.check.check_dataset`.  Without ``verbose`` the per-motion
-    values are left out."""
+    see :func:`cocomopl.dataset.check.check_dataset`.  NaN and Inf are read, and fail the
+    check, rather than refused on reading.  Without ``verbose`` the per-motion values are
+    left out."""
     from cocomopl.dataset.check import check_dataset
     from cocomopl.ocp.settings import OCPSettings
 
     path = dataset_path(path)
-    motions, attrs = read_motions(path)
+    motions, attrs = read_motions(path, finite=False, signals=is_dataset(path))
     defaults = OCPSettings()
-    settings = attrs.get("settings", {})
+    settings = attrs.get("settings") if isinstance(attrs.get("settings"), dict) else {}
     friction, dt = float(settings.get("friction", defaults.friction)), float(settings.get("dt", defaults.dt))
-    report = {"file": str(path), **check_dataset(Robot(_robot_of(motions, attrs)), motions, friction, dt)}
+    robot = load_robot(next(iter(motions.values())).robot)
+    signals = {name: s["values"] for name, s in attrs.get("signals", {}).items()}
+    report = {"file": str(path), **check_dataset(robot, motions, friction, dt, signals)}
     if not verbose:
         report.pop("per_motion")
     return report
-
-
-def _robot_of(motions: dict, attrs: dict) -> str:
-    """The robot a motion file is for: its metadata's, else its motions'."""
-    names = {attrs["robot"]} if "robot" in attrs else {m.robot for m in motions.values()}
-    if len(names) != 1:
-        raise Error(f"the file names {len(names)} robots ({', '.join(sorted(names)) or 'none'}); expected one")
-    return names.pop()
 
 
 # ---------------------------------------------------------------------------- stage 2
@@ -215,7 +210,7 @@ def simulate_file(
 
     reference = read_motion(path, motion_name)
     out = output_file(out or f"{Path(path).stem}-sim.h5", "motion.h5")
-    robot = Robot(reference.robot)
+    robot = load_robot(reference.robot)
     rollout, metrics = simulate_walk(robot, reference, stabilizer=stabilizer, progress=progress,
                                      contact_time_constant=contact_time_constant,
                                      reference_cutoff_hz=reference_cutoff_hz)
@@ -242,28 +237,25 @@ def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path 
     from cocomopl.analysis.plots import plot_motion
 
     motion = read_motion(path, motion_name)
-    files = plot_motion(Robot(motion.robot), motion, Path(out) if out else _plots_of(path, motion))
+    files = plot_motion(load_robot(motion.robot), motion, Path(out) if out else _plots_of(path, motion))
     return {"files": [str(f) for f in files]}
 
 
 def export_file(path: str | Path, fmt: str, prefix: str | Path, motion_name: str | None = None,
-                force: bool = False) -> dict:
+                force: bool = False, robot: str = DEFAULT_ROBOT) -> dict:
     """Write a motion for a robot (``fmt`` "seqplay" or "csv", files ``prefix.*``) behind
-    the safety gate: an unsafe motion is refused with its first reason unless ``force``."""
-    from cocomopl.export.safety import check_safe
+    the safety gate, with the limits of ``robot`` (a bundled name or a description file,
+    never the file's own word): an unsafe motion is refused with its first reason unless
+    ``force``; one holding NaN or Inf is always refused."""
     from cocomopl.export.seqplay import export_motion
 
     motion = read_motion(path, motion_name)
     prefix = Path(prefix)
     if prefix.is_dir():
         raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
-    robot = Robot(motion.robot)
-    reasons = check_safe(robot, motion)
-    if reasons and not force:
-        more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
-        raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}; --force exports anyway")
-    files = export_motion(robot, motion, fmt, prefix)
-    return {"files": [str(f) for f in files], "format": fmt, "unsafe": reasons, "forced": bool(reasons)}
+    files, report = export_motion(load_robot(robot), motion, fmt, prefix, force=force)
+    unsafe = report.pop("unsafe")
+    return {"files": [str(f) for f in files], "format": fmt, "unsafe": unsafe, "forced": bool(unsafe), "gate": report}
 
 
 def require_extra(module: str, extra: str, what: str) -> None:

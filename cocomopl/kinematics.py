@@ -154,3 +154,13 @@ def place_legs(
         q[2] -= step[0]
         q[rows] = np.clip(q[rows] - step[1:], model.lowerPositionLimit[rows], model.upperPositionLimit[rows])
     return q
+
+
+def check_reach(robot: Robot, lengths) -> None:
+    """An :class:`Error` for a step length (m) beyond the longest the robot's description vouches for."""
+    longest = max(lengths)
+    if longest > robot.max_step_length:
+        raise Error(
+            f"step length {longest * 1000:g} mm is beyond {robot.name}'s reach "
+            f"(at most {robot.max_step_length * 1000:g} mm, from its description)"
+        )

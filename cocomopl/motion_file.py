@@ -27,6 +27,7 @@ import numpy as np
 
 from cocomopl.errors import Error
 from cocomopl.motion import Motion, StepSpec
+from cocomopl.validation import check_motion, check_settings, check_signals
 
 FORMAT = "cocomopl"
 FORMAT_VERSION = 1
@@ -125,22 +126,80 @@ def write_motion_group(group: h5py.Group, motion: Motion, signals: dict | None =
                 sig.create_dataset(key, data=np.asarray(value))
 
 
-def read_motion_group(group: h5py.Group) -> Motion:
-    """Read a motion written by :func:`write_motion_group`."""
-    arrays = {key: np.array(group[key]) for key in _ARRAYS}
-    arrays["contact"] = arrays["contact"].astype(bool)
-    phases = [
-        (k.decode(), int(a), int(b))
-        for k, a, b in zip(group["phase_kind"][()], group["phase_first"][()], group["phase_last"][()])
-    ]
-    return Motion(
-        phases=phases,
-        steps=[StepSpec(**s) for s in json.loads(group.attrs["steps"])],
-        joint_names=json.loads(group.attrs["joint_names"]),
-        robot=str(group.attrs["robot"]),
-        meta=json.loads(group.attrs["meta"]),
+def _dataset(group: h5py.Group, key: str) -> np.ndarray:
+    """The array ``key`` of ``group``; an :class:`Error` if it is missing or not an array."""
+    item = group.get(key)
+    if not isinstance(item, h5py.Dataset):
+        raise Error(f"array {key!r} is missing")
+    if item.dtype.kind not in "biuf" and key != "phase_kind" and key != "names":
+        raise Error(f"array {key!r} holds {item.dtype} values, not numbers")
+    return item[()]
+
+
+def _json_attribute(group: h5py.Group, key: str):
+    """The JSON attribute ``key`` of ``group``, decoded; an :class:`Error` if missing or not JSON."""
+    value = group.attrs.get(key)
+    if isinstance(value, bytes):
+        value = value.decode(errors="replace")
+    if not isinstance(value, str):
+        raise Error(f"attribute {key!r} is missing or not text")
+    try:
+        return json.loads(value)
+    except json.JSONDecodeError:
+        raise Error(f"attribute {key!r} is not valid JSON") from None
+
+
+def _steps(group: h5py.Group) -> list[StepSpec]:
+    steps = _json_attribute(group, "steps")
+    if not isinstance(steps, list) or not all(isinstance(s, dict) for s in steps):
+        raise Error("attribute 'steps' is not a list of step objects")
+    try:
+        return [StepSpec(**s) for s in steps]
+    except (TypeError, ValueError) as exc:
+        raise Error(f"attribute 'steps' holds a bad step: {exc}") from None
+
+
+def _phases(group: h5py.Group) -> list[tuple[str, int, int]]:
+    kinds, first, last = (_dataset(group, f"phase_{key}") for key in ("kind", "first", "last"))
+    if not (kinds.ndim == first.ndim == last.ndim == 1 and len(kinds) == len(first) == len(last)):
+        raise Error("arrays 'phase_kind', 'phase_first' and 'phase_last' are not three lists of one length")
+    if first.dtype.kind not in "iu" or last.dtype.kind not in "iu" or kinds.dtype.kind != "S":
+        raise Error("phases are not (kind, first sample, last sample) triples")
+    return [(k.decode(errors="replace"), int(a), int(b)) for k, a, b in zip(kinds, first, last)]
+
+
+def read_motion_group(group: h5py.Group, robot=None, finite: bool = True) -> Motion:
+    """Read a motion written by :func:`write_motion_group` and check it with
+    :func:`cocomopl.validation.check_motion` (against ``robot`` if given; NaN and Inf are
+    refused unless ``finite`` is False).  Every problem is an :class:`Error`."""
+    arrays = {key: _dataset(group, key) for key in _ARRAYS}
+    contact = arrays["contact"]
+    if contact.dtype.kind in "iu" and np.isin(contact, (0, 1)).all():
+        arrays["contact"] = contact.astype(bool)
+    robot_name = group.attrs.get("robot")
+    motion = Motion(
+        phases=_phases(group),
+        steps=_steps(group),
+        joint_names=_json_attribute(group, "joint_names"),
+        robot=robot_name.decode(errors="replace") if isinstance(robot_name, bytes) else robot_name,
+        meta=_json_attribute(group, "meta"),
         **arrays,
     )
+    check_motion(motion, robot, finite)
+    return motion
+
+
+def read_signals(group: h5py.Group, n_signals: int | None = None, finite: bool = True) -> dict:
+    """The training signals of a dataset motion (``values``, ``t``, ``phase_time``, ``names``), checked."""
+    signals = group.get("signals")
+    if not isinstance(signals, h5py.Group):
+        raise Error("it has no training signals (regenerate it with 'cocomopl dataset generate')")
+    out = {key: _dataset(signals, key) for key in ("values", "t", "phase_time", "names")}
+    if out["names"].ndim != 1 or out["names"].dtype.kind not in "SU":
+        raise Error("signals/names is not a list of names")
+    out["names"] = [n.decode(errors="replace") if isinstance(n, bytes) else str(n) for n in out["names"]]
+    check_signals(out, n_signals, finite)
+    return out
 
 
 def write_motions(path: str | Path, motions: dict[str, Motion], attrs: dict, signals: dict | None = None) -> None:
@@ -167,13 +226,16 @@ def open_checked(path: str | Path) -> h5py.File:
         f = h5py.File(path, "r")
     except OSError:
         raise Error(f"{path} is not a readable HDF5 file (truncated, corrupt or another format)") from None
-    if f.attrs.get("format") != FORMAT or "motions" not in f:
+    if f.attrs.get("format") != FORMAT or not isinstance(f.get("motions"), h5py.Group):
         f.close()
-        raise Error(f"{path} is an HDF5 file but not a cocomopl motion file")
-    version = int(f.attrs.get("format_version", -1))
-    if version != FORMAT_VERSION:
+        raise Error(f"{path}: an HDF5 file but not a cocomopl motion file")
+    version = f.attrs.get("format_version")
+    if not (isinstance(version, (int, np.integer)) and version == FORMAT_VERSION):
         f.close()
-        raise Error(f"{path} has format version {version}; this cocomopl reads version {FORMAT_VERSION}")
+        raise Error(f"{path}: format version {version!r}; this cocomopl reads version {FORMAT_VERSION}")
+    if not all(isinstance(group, h5py.Group) for group in f["motions"].values()):
+        f.close()
+        raise Error(f"{path}: its motions are not all HDF5 groups")
     return f
 
 
@@ -192,18 +254,77 @@ def file_attrs(f: h5py.File) -> dict:
     return out
 
 
-def read_motions(path: str | Path) -> tuple[dict[str, Motion], dict]:
-    """All motions of a file, by name, and its metadata."""
+def load_robot(name: str):
+    """The robot a file names, loaded once per process; an :class:`Error` if it cannot be."""
+    from cocomopl.robot import Robot
+
+    if name not in _ROBOTS:
+        _ROBOTS[name] = Robot(name)
+    return _ROBOTS[name]
+
+
+_ROBOTS: dict = {}
+
+
+def _file_robot(f: h5py.File, names: list[str]) -> str:
+    """The one robot a file's motions are for (its metadata's, which they must all share)."""
+    robots = {f["motions"][n].attrs.get("robot") for n in names}
+    if "robot" in f.attrs:
+        robots.add(f.attrs["robot"])
+    robots = {r.decode(errors="replace") if isinstance(r, bytes) else r for r in robots}
+    if len(robots) != 1 or not all(isinstance(r, str) and r for r in robots):
+        raise Error(f"its motions name {len(robots)} robots ({', '.join(sorted(map(str, robots)))}); expected one")
+    return robots.pop()
+
+
+def is_dataset(path: str | Path) -> bool:
+    """Whether a file is an OC dataset, whose motions carry training signals."""
+    with open_checked(path) as f:
+        return f.attrs.get("content") == "dataset"
+
+
+def read_motions(path: str | Path, finite: bool = True, dataset: bool = False,
+                 signals: bool = False) -> tuple[dict[str, Motion], dict]:
+    """All motions of a file, by name, and its metadata, every one checked against the robot
+    the file names (see :func:`read_motion_group`).
+
+    ``dataset``: the file must be an OC dataset (content "dataset", with its OCP settings).
+    ``signals``: also read each motion's training signals, as ``attrs["signals"][name]``.
+    A problem is an :class:`Error` ``"PATH: what is wrong"``.
+    """
     with open_checked(path) as f:
         try:
-            motions = {name: read_motion_group(group) for name, group in f["motions"].items()}
+            attrs = file_attrs(f)
+            if dataset:
+                if attrs.get("content") != "dataset":
+                    raise Error("it is a cocomopl motion file, not an OC dataset (from 'cocomopl dataset generate')")
+                check_settings(attrs.get("settings"))
+            names = list(f["motions"])
+            if not names:
+                raise Error("it holds no motions")
+            robot = load_robot(_file_robot(f, names))
+            motions, found = {}, {}
+            for name in names:
+                try:
+                    motions[name] = read_motion_group(f["motions"][name], robot, finite)
+                    if signals:
+                        found[name] = read_signals(f["motions"][name], None, finite)
+                except Error as exc:
+                    raise Error(f"motion {name}: {exc}") from None
+            if signals:
+                counts = {len(s["names"]) for s in found.values()}
+                if len(counts) != 1:
+                    raise Error(f"its motions have different numbers of training signals ({sorted(counts)})")
+                attrs["signals"] = found
+        except Error as exc:
+            raise Error(f"{path}: {exc}") from None
         except (KeyError, ValueError, TypeError, OSError) as exc:
-            raise Error(f"{path} is damaged: {exc}") from None
-        return motions, file_attrs(f)
+            raise Error(f"{path}: damaged ({type(exc).__name__}: {exc})") from None
+        return motions, attrs
 
 
 def read_motion(path: str | Path, name: str | None = None) -> Motion:
-    """One motion of a file: ``name``, or the only one."""
+    """One motion of a file: ``name``, or the only one; checked as by :func:`read_motions`."""
     with open_checked(path) as f:
         names = list(f["motions"])
         if name is None:
@@ -213,6 +334,9 @@ def read_motion(path: str | Path, name: str | None = None) -> Motion:
         if name not in names:
             raise Error(f"{path} has no motion {name!r}; it has: {', '.join(names)}")
         try:
-            return read_motion_group(f["motions"][name])
+            robot = load_robot(_file_robot(f, [name]))
+            return read_motion_group(f["motions"][name], robot)
+        except Error as exc:
+            raise Error(f"{path}: motion {name}: {exc}") from None
         except (KeyError, ValueError, TypeError, OSError) as exc:
-            raise Error(f"{path} is damaged: {exc}") from None
+            raise Error(f"{path}: motion {name}: damaged ({type(exc).__name__}: {exc})") from None

@@ -14,7 +14,10 @@ from pathlib import Path
 
 from cocomopl.data import dataset_path as bundled_dataset_path
 from cocomopl.data import model_path as bundled_model_path
+from cocomopl.dataset.signals import signal_names
+from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, M_OPT, sequence_specs
+from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model
@@ -29,6 +32,7 @@ from cocomopl.synthesis.world import place_steps
 FILTER_WARNING_M = 0.03
 # s: sample spacing of generated walks, the OC training data's knot spacing
 PLAN_DT = 0.025
+PLAN_DT_RANGE = (0.01, 0.05)  # s: see check_plan_dt; at 0.01 M_gen takes 76 s on 2 cores, at 0.005 500 s
 
 
 @dataclass
@@ -42,6 +46,15 @@ class GeneratedWalk:
     generation_s: float  # the primitives alone, after loading
     placement_s: float  # world placement, dynamics filter and inverse dynamics
     warnings: list[str] = field(default_factory=list)
+
+
+def check_plan_dt(dt: float) -> float:
+    """``dt`` (s) if it is a sample spacing for a generated walk within ``PLAN_DT_RANGE``, else :class:`Error`."""
+    low, high = PLAN_DT_RANGE
+    if not low <= dt <= high:
+        raise Error(f"--dt {dt:g} s is outside {low:g} to {high:g} s (the dynamics filter's QP grows with the "
+                    "number of samples; beyond the upper end the touchdowns are not resolved)")
+    return dt
 
 
 def generate_walk(
@@ -62,7 +75,10 @@ def generate_walk(
     model_path = bundled_model_path(model_path)
     model = load_model(model_path).prepare()
     robot = Robot(model.metadata_.get("robot", DEFAULT_ROBOT))
-    dt = PLAN_DT if dt is None else dt
+    if list(model.signal_names) != signal_names(robot):
+        raise Error(f"{model_path}: its signals are not robot {robot.name}'s joints, ZMP and pelvis")
+    check_reach(robot, lengths)
+    dt = PLAN_DT if dt is None else check_plan_dt(dt)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)
         started = time.perf_counter()
@@ -178,6 +194,19 @@ def walk_report(
     return payload
 
 
+def _refuse_failing_dataset(robot, path, dataset: dict, attrs: dict) -> None:
+    """An :class:`Error` if the dataset fails its own check: a Table I from it would mislead."""
+    from cocomopl.dataset.check import check_dataset
+
+    settings = attrs["settings"]
+    signals = {name: s["values"] for name, s in attrs["signals"].items()}
+    report = check_dataset(robot, dataset, float(settings["friction"]), float(settings["dt"]), signals)
+    if not report["ok"]:
+        key = report["failures"][0]
+        raise Error(f"{path}: fails 'cocomopl dataset check' ({key} {report['worst'][key]:.4g} in "
+                    f"{report['worst_in'][key]}); reproduce needs a dataset that passes")
+
+
 def reproduce_report(
     out_dir: str | Path,
     model_path: str | Path | None = None,
@@ -203,16 +232,19 @@ def reproduce_report(
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.baselines.kajita import kajita_walk
     from cocomopl.dynamics import GRAVITY
-    from cocomopl.motion_file import read_motions, report_folder, write_json, write_motions
+    from cocomopl.motion_file import load_robot, read_motions, report_folder, write_json, write_motions
     from cocomopl.ocp.chained_steps import solve_sequence
 
     started = time.perf_counter()
     dataset_path = bundled_dataset_path(dataset_path)
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
+    dataset, attrs = read_motions(dataset_path, dataset=True, signals=True)
+    _refuse_failing_dataset(load_robot(next(iter(dataset.values())).robot), dataset_path, dataset, attrs)
     walk = generate_walk(list(M_GEN), model_path)
     robot = walk.robot
+    if robot.name != next(iter(dataset.values())).robot:
+        raise Error(f"the model is for robot {robot.name!r} and the dataset {dataset_path} for another")
     solve_started = time.perf_counter()
-    dataset, attrs = read_motions(dataset_path)
     m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
     kajita = kajita_walk(robot, [s.spec for s in walk.steps], [np.diff(s.phase_edges) for s in walk.steps], dt=PLAN_DT)

@@ -2,45 +2,51 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.motion_file import file_attrs, open_checked
+from cocomopl.motion_file import read_motions
 
 
 def dataset_info(path: str | Path) -> dict:
-    """Counts, convergence, timings and provenance of a dataset."""
-    with open_checked(path) as f:
-        attrs = file_attrs(f)
-        if attrs.get("content") != "dataset":
-            raise Error(f"{path} is a cocomopl motion file, not a dataset")
-        names = sorted(f["motions"])
-        try:
-            n_signals = {int(f["motions"][n]["signals"]["values"].shape[1]) for n in names}
-            durations = {n: float(f["motions"][n]["t"][-1]) for n in names}
-            stats = [json.loads(f["motions"][n].attrs["meta"]) for n in names]
-        except (KeyError, ValueError, OSError) as exc:
-            raise Error(f"{path} is damaged: {exc}") from None
+    """Counts, convergence, timings and provenance of a dataset (read and checked by
+    :func:`cocomopl.motion_file.read_motions`)."""
+    motions, attrs = read_motions(path, dataset=True, signals=True)
+    names = sorted(motions)
+    n_signals = {len(attrs["signals"][n]["names"]) for n in names}
+    durations = {n: float(motions[n].t[-1]) for n in names}
+    stats = [motions[n].meta for n in names]
+    try:
+        solver = [s["solver"] for s in stats if not s.get("mirrored")]
+        solve_times = [float(s["solve_time_s"]) for s in solver]
+        iterations = [float(s["iterations"]) for s in solver]
+        converged = all(bool(s["converged"]) for s in solver)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise Error(f"{path}: a motion's solver statistics are incomplete ({type(exc).__name__}: {exc})") from None
     signals = n_signals.pop() if len(n_signals) == 1 else None
-    solver = [s["solver"] for s in stats if not s.get("mirrored")]
-    continuity = attrs.get("continuity", {})
+    lengths = _attribute(path, attrs, "lengths_m", list, [])
+    continuity = _attribute(path, attrs, "continuity", dict, {})
+    _attribute(path, attrs, "ocps", list, [])
+    _attribute(path, attrs, "failed", dict, {})
+    _attribute(path, attrs, "wall_time_s", (int, float, type(None)), None)
+    if not all(isinstance(x, (int, float)) for x in [*lengths, *continuity.values()]):
+        raise Error(f"{path}: attributes 'lengths_m' and 'continuity' must hold numbers")
     return {
         "file": str(path),
         "robot": attrs.get("robot"),
-        "lengths_mm": [round(1000 * L) for L in attrs.get("lengths_m", [])],
+        "lengths_mm": [round(1000 * L) for L in lengths],
         "ocps": len(attrs.get("ocps", [])),
         "motions": len(names),
         "signals": signals,
         "trajectories": len(names) * (signals or 0),
-        "all_converged": bool(attrs.get("all_converged")) and all(s["converged"] for s in solver),
+        "all_converged": bool(attrs.get("all_converged")) and converged,
         "failed": attrs.get("failed", {}),
-        "mean_solve_time_s": float(np.mean([s["solve_time_s"] for s in solver])) if solver else None,
-        "total_solve_time_s": float(np.sum([s["solve_time_s"] for s in solver])) if solver else None,
+        "mean_solve_time_s": float(np.mean(solve_times)) if solver else None,
+        "total_solve_time_s": float(np.sum(solve_times)) if solver else None,
         "wall_time_s": attrs.get("wall_time_s"),
-        "mean_iterations": float(np.mean([s["iterations"] for s in solver])) if solver else None,
+        "mean_iterations": float(np.mean(iterations)) if solver else None,
         "max_continuity_error": max(continuity.values()) if continuity else None,
         "junctions": len(continuity),
         "duration_s": {"min": min(durations.values()), "max": max(durations.values())} if durations else None,
@@ -50,6 +56,14 @@ def dataset_info(path: str | Path) -> dict:
         "settings": attrs.get("settings"),
         "motion_names": names,
     }
+
+
+def _attribute(path, attrs: dict, key: str, kind, default):
+    """A dataset attribute that must be of ``kind`` if present; an :class:`Error` otherwise."""
+    value = attrs.get(key, default)
+    if not isinstance(value, kind) or isinstance(value, bool):
+        raise Error(f"{path}: attribute {key!r} is {type(value).__name__}, not the {key} a dataset holds")
+    return value
 
 
 def format_info(info: dict) -> str:

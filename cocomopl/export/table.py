@@ -8,10 +8,12 @@ Every column name ends with its unit.  The columns, in order:
 * ``waist_{x,y,z}_m``, ``waist_{roll,pitch,yaw}_rad``: waist pose, world frame;
 * ``<joint>_rad_s``: joint velocities;
 * ``<joint>_Nm``: joint torques;
-* ``{left,right}_f{x,y,z}_N``: contact force on each sole, world axes (zero in the air).
+* ``{left,right}_f{x,y,z}_N``: contact force on each sole, world axes (zero in the air);
+* ``{left,right}_m{x,y,z}_Nm``: contact moment on each sole about its origin, world axes;
+* ``{left,right}_contact``: 1 where the sole is in contact, else 0.
 
-Angles, velocities, waist pose and ZMP are interpolated linearly; torques and forces are
-held over each knot interval (:mod:`cocomopl.export.grid`).
+How each column is made from the motion is in :mod:`cocomopl.export.grid`;
+:func:`read_csv` reads the table back, for the safety gate's own re-check.
 """
 
 from __future__ import annotations
@@ -33,12 +35,45 @@ def columns(joint_names: list[str], grid: GridMotion) -> list[tuple[str, np.ndar
     named += [(f"{j}_rad_s", grid.velocities[:, i]) for i, j in enumerate(joint_names)]
     named += [(f"{j}_Nm", grid.torques[:, i]) for i, j in enumerate(joint_names)]
     named += [(f"{side}_f{a}_N", grid.forces[:, s, i]) for s, side in enumerate(SIDES) for i, a in enumerate("xyz")]
+    named += [(f"{side}_m{a}_Nm", grid.moments[:, s, i]) for s, side in enumerate(SIDES) for i, a in enumerate("xyz")]
+    named += [(f"{side}_contact", grid.contact[:, s]) for s, side in enumerate(SIDES)]
     return named
+
+
+def number_text(value: float) -> str:
+    return f"{value:.6f}"
 
 
 def csv_text(joint_names: list[str], grid: GridMotion) -> str:
     """The CSV file: a header line of column names, then one line per grid time."""
     named = columns(joint_names, grid)
     table = np.column_stack([values for _, values in named])
-    rows = (",".join(f"{v:.6f}" for v in row) for row in table)
+    rows = (",".join(map(number_text, row)) for row in table)
     return ",".join(name for name, _ in named) + "\n" + "\n".join(rows) + "\n"
+
+
+def read_csv(text: str, joint_names: list[str]) -> GridMotion:
+    """The :class:`GridMotion` of a table written by :func:`csv_text` for ``joint_names``."""
+    header, *rows = text.strip("\n").split("\n")
+    names = header.split(",")
+    table = np.array([[float(x) for x in row.split(",")] for row in rows]).reshape(len(rows), len(names))
+    column = {name: table[:, i] for i, name in enumerate(names)}
+
+    def stack(names: list[str]) -> np.ndarray:
+        return np.column_stack([column[n] for n in names])
+
+    def per_sole(unit: str, axes: str = "xyz") -> np.ndarray:
+        return np.stack([stack([f"{side}_{unit.format(a)}" for a in axes]) for side in SIDES], axis=1)
+
+    return GridMotion(
+        t=column["t_s"],
+        joints=stack([f"{j}_rad" for j in joint_names]),
+        velocities=stack([f"{j}_rad_s" for j in joint_names]),
+        torques=stack([f"{j}_Nm" for j in joint_names]),
+        forces=per_sole("f{}_N"),
+        moments=per_sole("m{}_Nm"),
+        contact=stack([f"{side}_contact" for side in SIDES]),
+        waist=stack([f"waist_{a}_m" for a in "xyz"]),
+        waist_rpy=stack([f"waist_{a}_rad" for a in ("roll", "pitch", "yaw")]),
+        zmp=stack([f"zmp_{a}_waist_m" for a in "xyz"]),
+    )

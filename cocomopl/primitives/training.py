@@ -10,14 +10,13 @@ phase durations themselves become regression targets.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 
 import numpy as np
 
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
-from cocomopl.motion_file import open_checked
+from cocomopl.motion_file import read_motions
 
 
 def step_type(spec: StepSpec) -> str:
@@ -72,34 +71,22 @@ class TrainingSteps:
 
 
 def load_training_steps(path) -> TrainingSteps:
-    """Read the training signals of every motion of a cocomopl dataset file."""
-    specs, values, phase_time, durations = [], [], [], []
-    with open_checked(path) as f:
-        names = sorted(f["motions"])
-        if not names:
-            raise Error(f"{path} holds no motions to learn from")
-        try:
-            signal_names = None
-            for name in names:
-                group = f["motions"][name]
-                steps = json.loads(group.attrs["steps"])
-                if len(steps) != 1:
-                    raise Error(f"{path}: motion {name} has {len(steps)} steps; training needs single steps")
-                signals = group["signals"]
-                t = signals["t"][()]
-                pt = signals["phase_time"][()]
-                specs.append(StepSpec(**steps[0]))
-                values.append(signals["values"][()])
-                phase_time.append(pt)
-                durations.append(_phase_durations(t, pt))
-                names_k = [n.decode() if isinstance(n, bytes) else str(n) for n in signals["names"][()]]
-                if signal_names is None:
-                    signal_names = names_k
-                elif names_k != signal_names:
-                    raise Error(f"{path}: motion {name} has different signals from the others")
-        except KeyError as exc:
-            raise Error(f"{path} has no training signals ({exc}); regenerate it with 'cocomopl dataset generate'") from None
-        source = {"path": str(path), "created": str(f.attrs.get("created", "")), "robot": str(f.attrs.get("robot", ""))}
+    """Read the training signals of every motion of a cocomopl dataset file, checked
+    (:func:`cocomopl.motion_file.read_motions`)."""
+    motions, attrs = read_motions(path, dataset=True, signals=True)
+    specs, values, phase_time, durations, signal_names = [], [], [], [], None
+    for name in sorted(motions):
+        if len(motions[name].steps) != 1:
+            raise Error(f"{path}: motion {name} has {len(motions[name].steps)} steps; training needs single steps")
+        signals = attrs["signals"][name]
+        if signal_names is not None and signals["names"] != signal_names:
+            raise Error(f"{path}: motion {name} has different signals from the others")
+        signal_names = signals["names"]
+        specs.append(motions[name].steps[0])
+        values.append(signals["values"])
+        phase_time.append(signals["phase_time"])
+        durations.append(_phase_durations(signals["t"], signals["phase_time"]))
+    source = {"path": str(path), "created": str(attrs.get("created", "")), "robot": next(iter(motions.values())).robot}
     return TrainingSteps(specs, values, phase_time, durations, signal_names, source)
 
 

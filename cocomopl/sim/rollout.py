@@ -58,17 +58,23 @@ def check_reference_cutoff(value: float) -> float:
     return value
 
 
+def low_passed(samples: np.ndarray, dt: float, cutoff: float) -> np.ndarray:
+    """``samples`` (n, m) every ``dt`` s through the reference's zero-phase low-pass at
+    ``cutoff`` Hz (0: unchanged)."""
+    if not cutoff:
+        return samples
+    # the robot stands still before and after: extend the ends with constant postures
+    sos = butter(2, cutoff, fs=1.0 / dt, output="sos")
+    return sosfiltfilt(sos, samples, axis=0, padtype="constant", padlen=min(len(samples) - 1, int(1.0 / dt)))
+
+
 def _reference_joints(motion: Motion, dt: float, cutoff: float):
     """Joint angles of ``motion`` at any time: linear between its knots, sampled every ``dt``,
     low-passed at ``cutoff`` Hz (0: not filtered), held at the ends."""
     keep = motion.kept_samples()
     t, q = motion.t[keep], motion.q[keep, 7:]
     grid = np.arange(t[0], t[-1] + dt / 2, dt)
-    samples = np.column_stack([np.interp(grid, t, q[:, j]) for j in range(q.shape[1])])
-    if cutoff:
-        # the robot stands still before and after: extend the ends with constant postures
-        sos = butter(2, cutoff, fs=1.0 / dt, output="sos")
-        samples = sosfiltfilt(sos, samples, axis=0, padtype="constant", padlen=min(len(grid) - 1, int(1.0 / dt)))
+    samples = low_passed(np.column_stack([np.interp(grid, t, q[:, j]) for j in range(q.shape[1])]), dt, cutoff)
 
     def at(time: float) -> np.ndarray:
         return samples[int(np.clip(round((time - t[0]) / dt), 0, len(grid) - 1))]

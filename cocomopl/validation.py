@@ -1,0 +1,157 @@
+"""Checks of what a file holds, before anything computes with it.
+
+A motion, dataset or model file can be truncated, edited by hand or written by another
+program.  Each reader calls these checks once, so a wrong file is refused with one line
+naming what is wrong instead of failing somewhere deep in a solver, a plot or an export.
+The functions raise :class:`~cocomopl.errors.Error` with a message that does not name the
+file; the readers prefix it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cocomopl.errors import Error
+from cocomopl.gait import MAX_LENGTH_M
+from cocomopl.motion import Motion
+
+PHASE_KINDS = ("ds", "ss")
+QUATERNION_TOLERANCE = 1e-3  # |norm - 1| of the base orientation; solvers and MuJoCo keep it near 1e-12
+NO_PUSH_FORCE = 1e-6  # N: the ZMP is undefined (NaN) where the soles push less than this in all
+
+
+def require(condition: bool, message: str) -> None:
+    """Raise :class:`Error` with ``message`` unless ``condition``."""
+    if not condition:
+        raise Error(message)
+
+
+def check_array(name: str, value: np.ndarray, kind: str, shape: tuple) -> np.ndarray:
+    """``value`` if its dtype kind is one of ``kind`` ("f" float, "i" integer, "b" bool) and
+    its shape matches ``shape`` (None matches any length); else :class:`Error`."""
+    value = np.asarray(value)
+    kinds = {"f": "floating-point numbers", "i": "whole numbers", "b": "booleans", "fi": "numbers", "bi": "0/1 flags"}
+    require(value.dtype.kind in kind.replace("i", "iu"), f"array {name!r} holds {value.dtype} values, not {kinds[kind]}")
+    expected = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+    require(
+        value.ndim == len(shape) and all(s is None or s == v for s, v in zip(shape, value.shape)),
+        f"array {name!r} has shape {value.shape}, expected {expected}",
+    )
+    return value
+
+
+def check_finite(name: str, value: np.ndarray) -> None:
+    """:class:`Error` naming the first NaN or Inf in ``value``, if any."""
+    bad = ~np.isfinite(value)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise Error(f"array {name!r} holds {int(bad.sum())} NaN or infinite value(s), the first {value[index]} at {index}")
+
+
+def check_indices(name: str, value: np.ndarray, n: int, increasing: bool = True) -> None:
+    """``value`` are sample indices in ``0 .. n-1``, strictly increasing if ``increasing``."""
+    if value.size:
+        require(value.min() >= 0 and value.max() < n, f"{name} {value.tolist()} are not all sample indices 0..{n - 1}")
+    if increasing:
+        require(bool(np.all(np.diff(value) > 0)), f"{name} {value.tolist()} are not strictly increasing")
+
+
+def check_steps(steps: list) -> None:
+    """Every step's lengths are numbers of metres within reach."""
+    require(len(steps) >= 1, "the motion has no steps")
+    for spec in steps:
+        for length in (spec.start_length, spec.end_length):
+            require(
+                isinstance(length, (int, float)) and not isinstance(length, bool) and math.isfinite(length)
+                and 0.0 <= length <= MAX_LENGTH_M,
+                f"step {spec.kind} has length {length!r}, not a number of metres in 0..{MAX_LENGTH_M:g}",
+            )
+
+
+def check_time(t: np.ndarray, impacts: np.ndarray) -> None:
+    """Time increases strictly, except that a touchdown repeats its time once (pre- and post-impact)."""
+    require(len(t) >= 2, f"the motion has {len(t)} sample(s); at least 2 are needed")
+    check_indices("impacts", impacts, len(t) - 1)
+    step = np.diff(t)
+    repeated = np.zeros(len(step), dtype=bool)
+    repeated[impacts] = True
+    bad = np.flatnonzero(np.where(repeated, step != 0.0, step <= 0.0))
+    if bad.size:
+        k = int(bad[0])
+        what = "an impact whose time is not repeated" if repeated[k] else "time that does not increase"
+        raise Error(f"samples {k} and {k + 1} (t = {t[k]:.6g}, {t[k + 1]:.6g} s) have {what}")
+
+
+def check_motion(motion: Motion, robot=None, finite: bool = True) -> None:
+    """Refuse a motion that is not a well-formed motion (for ``robot``, if given).
+
+    Checks the kinds and shapes of every array against each other and the robot, strictly
+    increasing time (repeated at impacts only), the indices (impacts, step starts, phases)
+    in range, the attributes' types, a unit base quaternion and, unless ``finite`` is
+    False, that no value is NaN or infinite (the ZMP may be NaN where no sole pushes).
+    """
+    require(isinstance(motion.robot, str) and motion.robot != "", "attribute 'robot' is not a robot name")
+    require(isinstance(motion.meta, dict), "attribute 'meta' is not a JSON object")
+    names = motion.joint_names
+    require(isinstance(names, list) and all(isinstance(x, str) for x in names), "joint_names is not a list of names")
+    nu = len(names)
+    t = check_array("t", motion.t, "f", (None,))
+    n = len(t)
+    shapes = {"q": (n, 7 + nu), "v": (n, 6 + nu), "tau": (n, nu), "wrenches": (n, 2, 6), "zmp": (n, 3)}
+    arrays = {key: check_array(key, getattr(motion, key), "f", shape) for key, shape in shapes.items()}
+    check_array("contact", motion.contact, "b", (n, 2))
+    impacts = check_array("impacts", motion.impacts, "i", (None,))
+    starts = check_array("step_starts", motion.step_starts, "i", (len(motion.steps),))
+    if robot is not None:
+        require(motion.robot == robot.name, f"the motion is for robot {motion.robot!r}, not {robot.name!r}")
+        require(names == list(robot.joint_names), f"its joint names are not {robot.name}'s {nu}-joint order")
+    if finite:
+        check_finite("t", t)
+        for key, value in arrays.items():
+            if key == "zmp":  # undefined, NaN, where no sole pushes: only there
+                pushing = motion.wrenches[:, :, 2].sum(axis=1) > NO_PUSH_FORCE
+                check_finite("zmp", value[pushing])
+                require(not np.isinf(value).any(), "array 'zmp' holds infinite values")
+            else:
+                check_finite(key, value)
+        norm = np.linalg.norm(arrays["q"][:, 3:7], axis=1)
+        k = int(np.argmax(np.abs(norm - 1.0)))
+        require(abs(norm[k] - 1.0) <= QUATERNION_TOLERANCE, f"the base quaternion at sample {k} has norm {norm[k]:.6g}, not 1")
+    check_indices("impacts", impacts, n - 1)
+    if np.isfinite(t).all():  # a NaN time is reported by the finiteness check (or the dataset check)
+        check_time(t, impacts)
+    check_steps(motion.steps)
+    check_indices("step_starts", starts, n)
+    require(starts[0] == 0, f"step_starts begin at {int(starts[0])}, not 0")
+    for kind, first, last in motion.phases:
+        require(kind in PHASE_KINDS, f"phase kind {kind!r} is not one of {', '.join(PHASE_KINDS)}")
+        require(0 <= first <= last < n, f"phase ({kind}, {first}, {last}) is not a sample range within 0..{n - 1}")
+
+
+def check_signals(signals: dict, n_signals: int | None = None, finite: bool = True) -> int:
+    """Refuse training signals that are not ``values`` (n, I), ``t`` and ``phase_time`` (n,)
+    increasing, ``names`` (I,); returns I.  ``n_signals``: the I of the other motions."""
+    values = check_array("signals/values", signals["values"], "f", (None, n_signals))
+    n, count = values.shape
+    t = check_array("signals/t", signals["t"], "f", (n,))
+    phase_time = check_array("signals/phase_time", signals["phase_time"], "f", (n,))
+    require(len(signals["names"]) == count, f"signals/names has {len(signals['names'])} names for {count} signals")
+    if finite:
+        for key, value in (("signals/values", values), ("signals/t", t), ("signals/phase_time", phase_time)):
+            check_finite(key, value)
+    require(n >= 2 and bool(np.all(np.diff(t) > 0)), "signals/t does not increase strictly")
+    require(bool(np.all(np.diff(phase_time) >= 0)) and phase_time[0] == 0 and phase_time[-1] >= 1,
+            "signals/phase_time does not run from 0 up to the number of phases")
+    return count
+
+
+def check_settings(settings) -> dict:
+    """A dataset's OCP settings: a JSON object whose ``dt`` and ``friction`` are positive numbers."""
+    require(isinstance(settings, dict), "attribute 'settings' is missing or not a JSON object (is this a dataset?)")
+    for key in ("dt", "friction"):
+        value = settings.get(key)
+        require(isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0,
+                f"settings {key!r} is {value!r}, not a positive number")
+    return settings
