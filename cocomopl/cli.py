@@ -124,13 +124,17 @@ def _warn(message: str) -> None:
     print(f"cocomopl: warning: {message}", file=sys.stderr)
 
 
-def _note_replacing(*paths: str | Path) -> None:
-    """Say which existing outputs a command is about to replace."""
-    for path in map(Path, paths):
-        if path.is_file():
-            _warn(f"replacing {path}")
-        elif path.is_dir() and any(path.iterdir()):
-            _warn(f"writing into {path}, which is not empty: its files of the same names are replaced")
+def _note_replacing(*paths: str | Path, inputs=(), folder: bool = False, given: str | Path | None = None) -> None:
+    """Say which existing outputs a command is about to replace (report folders with ``folder``).
+
+    The command's own checks (:func:`~cocomopl.motion_file.check_output`, against its ``inputs``) run here first,
+    so that a refused output is one error line, not a warning and then the error."""
+    from cocomopl.motion_file import check_output
+
+    for path in paths:
+        note = check_output(path, inputs, folder=folder, given=given)
+        if note:
+            _warn(note)
 
 
 METRIC_ROWS = (
@@ -172,7 +176,7 @@ def cmd_dataset_generate(args) -> int:
 
     # None: the default extra transitions of these lengths
     extra = None if args.extra_transitions_mm is None else parse_transitions_mm(args.extra_transitions_mm, args.lengths_mm)
-    _note_replacing(args.out)
+    _note_replacing(args.out, inputs=[args.robot])
     summary = generate_dataset(
         args.out, args.lengths_mm, extra, args.robot, args.dt, args.max_iterations, args.load_transfer_weight,
         args.min_knee_flexion_rad, args.workers, args.scheduler, args.command_line, progress=True,
@@ -214,7 +218,7 @@ def cmd_dataset_check(args) -> int:
 def cmd_train(args) -> int:
     from cocomopl.jobs import train_model
 
-    _note_replacing(args.out, Path(args.out).with_suffix(".png"))
+    _note_replacing(args.out, Path(args.out).with_suffix(".png"), inputs=[args.data], given=args.out)
     payload = train_model(args.out, args.data, args.primitives, args.kernels, args.max_iterations,
                           args.workers or os.cpu_count() or 1, args.command_line, progress=True)
     lines = _selection_table(payload["selection"], (payload["kernel"], payload["n_primitives"]))
@@ -245,7 +249,7 @@ def cmd_model_info(args) -> int:
 def cmd_generate(args) -> int:
     from cocomopl.jobs import generate_walk_file
 
-    _note_replacing(args.out)
+    _note_replacing(args.out, inputs=[args.model])
     payload = generate_walk_file(args.lengths_mm, args.out, args.model, args.dt, args.first_swing, args.strict,
                                  args.command_line)
     for message in payload["warnings"]:
@@ -267,7 +271,7 @@ def cmd_generate(args) -> int:
 def cmd_plot(args) -> int:
     from cocomopl.jobs import plot_file, plot_folder
 
-    _note_replacing(args.out or plot_folder(args.file, args.motion))
+    _note_replacing(args.out or plot_folder(args.file, args.motion), inputs=[args.file], folder=True)
     payload = plot_file(args.file, args.motion, args.out)
     _emit(args, payload, "\n".join(f"wrote {f}" for f in payload["files"]))
     return 0
@@ -276,7 +280,7 @@ def cmd_plot(args) -> int:
 def cmd_simulate(args) -> int:
     from cocomopl.jobs import simulate_file
 
-    _note_replacing(args.out or f"{Path(args.file).stem}-sim.h5")
+    _note_replacing(args.out or f"{Path(args.file).stem}-sim.h5", inputs=[args.file])
     payload = simulate_file(args.file, args.motion, args.out, not args.no_stabilizer, args.contact_time_constant_s,
                             args.reference_cutoff_hz, args.command_line, progress=not args.json)
     _emit(args, payload, _metrics_table(payload) + f"\nwrote {payload['output']}")
@@ -287,7 +291,7 @@ def cmd_walk(args) -> int:
     from cocomopl.pipeline import walk_report
 
     out = Path(args.out)
-    _note_replacing(out)
+    _note_replacing(out, inputs=[args.model], folder=True)
     payload = walk_report(args.lengths_mm, out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
                           progress=not args.json, contact_time_constant=args.contact_time_constant_s,
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
@@ -307,7 +311,7 @@ def cmd_reproduce(args) -> int:
     from cocomopl.pipeline import reproduce_report
 
     out = Path(args.out)
-    _note_replacing(out)
+    _note_replacing(out, inputs=[args.model, args.data], folder=True)
     payload = reproduce_report(out, args.model, args.data, progress=not args.json,
                                contact_time_constant=args.contact_time_constant_s,
                                reference_cutoff_hz=args.reference_cutoff_hz, command=args.command_line)
@@ -332,12 +336,11 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_export(args) -> int:
+    from cocomopl.export.safety import margins_text
     from cocomopl.export.seqplay import SUFFIXES
     from cocomopl.jobs import export_file
 
-    _note_replacing(*(f"{args.out}{suffix}" for suffix in SUFFIXES[args.format]))
-    from cocomopl.export.safety import margins_text
-
+    _note_replacing(*(f"{args.out}{suffix}" for suffix in SUFFIXES[args.format]), inputs=[args.file], given=args.out)
     payload = export_file(args.file, args.format, args.out, args.motion, args.force, args.robot)
     lines = [f"wrote {f}" for f in payload["files"]] + [f"warning (--force): {r}" for r in payload["unsafe"]]
     if not payload["unsafe"]:
@@ -349,7 +352,10 @@ def cmd_export(args) -> int:
 def cmd_export_model(args) -> int:
     from cocomopl.export.mjcf import export_model, mesh_folder
 
-    _note_replacing(args.out, mesh_folder(Path(args.out)))
+    meshes = mesh_folder(Path(args.out))
+    _note_replacing(args.out)
+    if meshes.is_dir():  # replaced as a whole by the export (the meshes of an earlier one), not a report folder
+        _warn(f"replacing {meshes}")
     payload = export_model(args.robot, args.format, args.out)
     _emit(args, payload, f"wrote {payload['output']}")
     return 0
@@ -556,6 +562,11 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except Error as exc:
         print(f"cocomopl: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # the system refused: a full disk, a read-only place, a name too long, ...
+        from cocomopl.motion_file import os_error_message
+
+        print(f"cocomopl: error: {os_error_message(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("cocomopl: interrupted", file=sys.stderr)

@@ -19,7 +19,16 @@ import numpy as np
 
 from cocomopl.data import dataset_path, model_path
 from cocomopl.errors import Error
-from cocomopl.motion_file import is_dataset, load_robot, output_file, read_motion, read_motions, write_motions
+from cocomopl.motion_file import (
+    check_output,
+    is_dataset,
+    load_robot,
+    output_file,
+    read_motion,
+    read_motions,
+    report_folder,
+    write_motions,
+)
 from cocomopl.provenance import stamp
 from cocomopl.robot import DEFAULT_ROBOT
 
@@ -52,8 +61,9 @@ def generate_dataset(
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
                  "min_knee_flexion": min_knee_flexion}
     settings = replace(OCPSettings(), **{k: v for k, v in overrides.items() if v is not None})
-    return generate(output_file(out, "dataset.h5"), lengths, extra_transitions, robot, settings, workers, scheduler,
-                    command or "Python API", progress)
+    out = output_file(out, "dataset.h5", inputs=[robot])  # a robot description file is an input
+    return generate(out, lengths, extra_transitions, robot, settings, workers, scheduler, command or "Python API",
+                    progress)
 
 
 def check_dataset_file(path: str | Path | None = None, verbose: bool = False) -> dict:
@@ -101,8 +111,8 @@ def train_model(
     from cocomopl.primitives.training import load_training_steps
 
     require_extra("jax", "train", "cocomopl train")
-    out = output_file(out, "model.npz")
     data = dataset_path(data)
+    out = output_file(out, "model.npz", inputs=[data], beside=(".png",))  # minutes of training need a place to go
     steps = load_training_steps(data)
     started = time.perf_counter()
     best, rows = select_model(
@@ -174,8 +184,8 @@ def generate_walk_file(
     from cocomopl.pipeline import generate_walk, walk_provenance
     from cocomopl.synthesis.step_chain import joint_std_max
 
-    out = output_file(out, "motion.h5")
     model = model_path(model)
+    out = output_file(out, "motion.h5", inputs=[model])
     walk = generate_walk(lengths, model, dt, first_swing, strict)
     motion = walk.motion
     write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": "primitives",
@@ -209,7 +219,7 @@ def simulate_file(
     from cocomopl.pipeline import simulate_walk
 
     reference = read_motion(path, motion_name)
-    out = output_file(out or f"{Path(path).stem}-sim.h5", "motion.h5")
+    out = output_file(out or f"{Path(path).stem}-sim.h5", "motion.h5", inputs=[path])
     robot = load_robot(reference.robot)
     rollout, metrics = simulate_walk(robot, reference, stabilizer=stabilizer, progress=progress,
                                      contact_time_constant=contact_time_constant,
@@ -232,13 +242,16 @@ def _plots_of(path: str | Path, motion) -> Path:
 
 
 def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path | None = None) -> dict:
-    """PNGs of one motion of a file (joints, ZMP, contact forces, torques) in the folder
-    ``out`` (default: :func:`plot_folder`)."""
+    """PNGs of one motion of a file (joints, ZMP, contact forces, torques) in the report
+    folder ``out`` (default: :func:`plot_folder`), written as a unit by
+    :func:`~cocomopl.motion_file.report_folder`."""
     from cocomopl.analysis.plots import plot_motion
 
     motion = read_motion(path, motion_name)
-    files = plot_motion(load_robot(motion.robot), motion, Path(out) if out else _plots_of(path, motion))
-    return {"files": [str(f) for f in files]}
+    folder = Path(out) if out else _plots_of(path, motion)
+    with report_folder(folder, inputs=[path]) as work:
+        files = plot_motion(load_robot(motion.robot), motion, work)
+    return {"files": [str(folder / f.name) for f in files]}
 
 
 def export_file(path: str | Path, fmt: str, prefix: str | Path, motion_name: str | None = None,
@@ -247,12 +260,14 @@ def export_file(path: str | Path, fmt: str, prefix: str | Path, motion_name: str
     the safety gate, with the limits of ``robot`` (a bundled name or a description file,
     never the file's own word): an unsafe motion is refused with its first reason unless
     ``force``; one holding NaN or Inf is always refused."""
-    from cocomopl.export.seqplay import export_motion
+    from cocomopl.export.seqplay import SUFFIXES, export_motion
 
     motion = read_motion(path, motion_name)
     prefix = Path(prefix)
     if prefix.is_dir():
         raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
+    for suffix in SUFFIXES.get(fmt, ()):  # an unknown format is export_motion's to refuse
+        check_output(f"{prefix}{suffix}", [path], given=prefix)
     files, report = export_motion(load_robot(robot), motion, fmt, prefix, force=force)
     unsafe = report.pop("unsafe")
     return {"files": [str(f) for f in files], "format": fmt, "unsafe": unsafe, "forced": bool(unsafe), "gate": report}

@@ -10,13 +10,18 @@ Layout (``h5dump -n`` shows it)::
         signals/            values (n', 36), t (n',), phase_time (n',), names (36,)
 
 Files are written to a temporary file beside the target and renamed, so a crash never
-leaves a partial file.  Nothing is unpickled.
+leaves a partial file; report folders likewise (:func:`report_folder`).  Where outputs may go
+is checked before any work (:func:`check_output`): never over an input, a read-only file or a
+folder of the user's.  Nothing is unpickled.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import re
+import secrets
 import shutil
 import tempfile
 from contextlib import contextmanager
@@ -34,6 +39,15 @@ FORMAT_VERSION = 1
 _ARRAYS = ("t", "q", "v", "tau", "wrenches", "contact", "zmp", "impacts", "step_starts")
 
 
+# ---------------------------------------------------------------------------- output places
+# A temporary file or folder is ".<target name>.cocomopl-tmp-<pid>-<8 hex>[suffix]" beside its target: the pid
+# lets a later run tell the leftovers of a killed writer (pid gone) from those of one still writing.
+_TEMP_TAG = "cocomopl-tmp"
+_TEMP = re.compile(rf"^\..*\.{_TEMP_TAG}-(\d+)-[0-9a-f]{{8}}")
+# what a report folder writes last: it marks the folder as a report and lists the files the report wrote
+REPORT_MARKER = ".cocomopl-report.json"
+
+
 def writable_folder(folder: Path, purpose: str) -> Path:
     """Create ``folder`` if needed and make sure it can be written, or raise :class:`Error`
     naming ``purpose`` (e.g. "output folder plots")."""
@@ -49,54 +63,266 @@ def writable_folder(folder: Path, purpose: str) -> Path:
     return folder
 
 
-def output_file(path: str | Path, example_name: str) -> Path:
-    """``path`` as an output file: an :class:`Error` if it is a directory (naming
-    ``example_name`` as a file to give instead) or its folder cannot be written."""
+def check_output(path: str | Path, inputs=(), *, folder: bool = False, given: str | Path | None = None) -> str | None:
+    """Refuse, before any work, an output that must not be written, and say what it replaces.
+
+    Parameters
+    ----------
+    path : the file (or with ``folder``, the report folder) a command will write
+    inputs : the files the command reads (None entries are skipped); none may be replaced
+    folder : ``path`` is a report folder, replaced as a whole (see :func:`report_folder`)
+    given : the ``--out`` the user gave, for the messages (default: ``path``)
+
+    Returns
+    -------
+    str or None
+        "replacing PATH" or "replacing the report PATH" if it exists, else None.
+
+    Raises
+    ------
+    Error
+        if ``path`` would replace an input (the same file, symlinks, hard links and other
+        spellings included, or a folder holding it), or is not what it would be replaced
+        with: a read-only or special file, or a folder that is not a cocomopl report.
+    """
+    path = Path(path)
+    for source in (Path(s) for s in inputs if s is not None):
+        if _replaces(path, source):
+            raise Error(f"--out {Path(given or path)} would replace the input {source}")
+    if not path.exists():
+        return None
+    return _replaced_report(path) if folder else _replaced_file(path)
+
+
+def _replaces(out: Path, source: Path) -> bool:
+    """Whether writing ``out`` destroys the existing file ``source``: it is ``out``, or lies in the folder ``out``."""
+    if not source.exists():
+        return False
+    if out.exists() and os.path.samefile(out, source):
+        return True
+    return out.resolve() in source.resolve().parents
+
+
+def _replaced_file(path: Path) -> str:
+    """The note for an existing output file, or an :class:`Error` if it must not be replaced."""
+    if not path.is_file():
+        what = "a directory" if path.is_dir() else "not a regular file"
+        raise Error(f"{path} is {what}, where a file is to be written; cocomopl replaces only files")
+    # renaming over a file needs only its folder's permission: honour the file's own protection
+    if not path.stat().st_mode & 0o222 or not os.access(path, os.W_OK):
+        raise Error(f"{path} is read-only; cocomopl does not replace it")
+    return f"replacing {path}"
+
+
+def _replaced_report(folder: Path) -> str | None:
+    """The note for an existing report folder, or an :class:`Error` unless it is empty or a cocomopl report holding
+    only what the report wrote (so no file of the user's is ever deleted)."""
+    if not folder.is_dir():
+        raise Error(f"--out {folder} is a file, not a folder")
+    here = Path.cwd()
+    if folder.resolve() in (here, *here.parents):  # renamed away, it would leave the shell in a deleted folder
+        raise Error(f"--out {folder} is the current folder or holds it; give a folder inside it")
+    entries = {name for name in os.listdir(folder) if not _TEMP.match(name)}
+    if not entries:
+        return None
+    listed = _report_files(folder)
+    if listed is None:
+        raise Error(f"--out {folder} is not empty and not a cocomopl report (it holds {min(entries)}); "
+                    "give a new or empty folder")
+    foreign = sorted(entries - listed - {REPORT_MARKER})
+    if foreign:
+        raise Error(f"--out {folder} is a cocomopl report but also holds {foreign[0]}, which the report did not "
+                    "write; move it out or give another folder")
+    return f"replacing the report {folder}"
+
+
+def _report_files(folder: Path) -> set[str] | None:
+    """The file names a report folder's marker lists, or None if it has no readable marker."""
+    try:
+        marker = json.loads((folder / REPORT_MARKER).read_text())
+        return set(marker["files"]) if marker.get("format") == "cocomopl report" else None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def output_file(path: str | Path, example_name: str, inputs=(), beside: tuple[str, ...] = ()) -> Path:
+    """``path`` as an output file, checked by :func:`check_output` against ``inputs``, with the files of suffixes
+    ``beside`` written next to it (``train``'s ".png"), before any work: an :class:`Error` if it is a directory
+    (naming ``example_name`` as a file to give instead), may not be replaced, or its folder cannot be written."""
     path = Path(path)
     if path.is_dir():
         raise Error(f"--out {path} is a directory; give a file path such as {path / example_name}")
+    for target in (path, *(path.with_suffix(suffix) for suffix in beside)):
+        check_output(target, inputs, given=path)
     writable_folder(path.parent, f"the folder of --out {path}")
     return path
 
 
 @contextmanager
-def report_folder(folder: str | Path):
-    """Yield ``folder`` for a report, created if needed; if the block fails or is
-    interrupted, remove what it added (the folder itself if it made it), so a failed run
-    leaves nothing behind."""
+def report_folder(folder: str | Path, inputs=()):
+    """Yield a temporary folder in which to write the report ``folder``; it replaces ``folder`` when the block succeeds.
+
+    The folder is built beside ``folder`` under a temporary name, marked with :data:`REPORT_MARKER` (listing its
+    files) and renamed into place, so a run that fails, is interrupted or killed leaves the old report or the new
+    one, never a mix, and no empty folder.  An existing ``folder`` is replaced only if :func:`check_output` allows
+    it (empty, or a report holding only its own files); that and ``inputs`` are checked on entry, before any work.
+    Replacing renames the old report to a temporary name, the new one into place, then deletes the old one: a
+    kill between the two renames (microseconds) leaves both under temporary names and no ``folder``.
+    """
     folder = Path(folder)
-    existed = folder.exists()
-    before = set(folder.iterdir()) if existed and folder.is_dir() else set()
-    writable_folder(folder, f"output folder {folder}")
+    check_output(folder, inputs, folder=True)
+    place = folder.resolve() if folder.is_symlink() else folder  # a link to a report stays a link
+    made = [p for p in (place.parent, *place.parent.parents) if not p.exists()]  # deepest first
+    work = None
     try:
-        yield folder
+        writable_folder(place.parent, f"the folder of --out {folder}")
+        remove_stale_temps(place.parent)
+        work = _temp_name(place)
+        work.mkdir()
+        with _named_as(work, folder, unnamed=False):
+            yield work
+            files = sorted(p.name for p in work.iterdir() if not _TEMP.match(p.name))
+            (work / REPORT_MARKER).write_text(json.dumps({"format": "cocomopl report", "files": files}) + "\n")
+            _swap_in(work, place)
     except BaseException:
-        if not existed:
-            shutil.rmtree(folder, ignore_errors=True)
-        else:
-            for added in set(folder.iterdir()) - before:
-                shutil.rmtree(added) if added.is_dir() else added.unlink(missing_ok=True)
+        if work is not None:
+            shutil.rmtree(work, ignore_errors=True)
+        for parent in made:  # the folders made for it, if they stayed empty
+            try:
+                parent.rmdir()
+            except OSError:
+                break
         raise
+
+
+def _swap_in(new: Path, place: Path) -> None:
+    """Rename the folder ``new`` to ``place``, replacing the folder there (a folder cannot be renamed over a non-empty
+    one: the old one is renamed aside first, put back if the second rename fails, and deleted last)."""
+    if not place.exists():
+        os.rename(new, place)
+        return
+    _replaced_report(place)  # again: the user may have put a file there during the run
+    old = _temp_name(place, ".old")
+    os.rename(place, old)
+    try:
+        os.rename(new, place)
+    except BaseException:
+        os.rename(old, place)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
 
 
 @contextmanager
 def atomic_path(path: Path, suffix: str = ".tmp"):
     """Yield a temporary path beside ``path`` that replaces it only if the block succeeds.
 
-    ``suffix`` ends the temporary name, for writers that choose their format by it."""
+    ``suffix`` ends the temporary name, for writers that choose their format by it.  Leftovers of writers that were
+    killed are removed first (:func:`remove_stale_temps`); an :class:`OSError` about the temporary file names
+    ``path`` instead."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(name, 0o666 & ~umask)  # mkstemp makes 0600; a result file is an ordinary file
-    tmp = Path(name)
+    remove_stale_temps(path.parent)
+    tmp = _temp_name(path, suffix)
+    # O_EXCL: never another's file; mode 0666 less the umask, as for any result file (mkstemp's is 0600)
+    os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
     try:
-        yield tmp
+        with _named_as(tmp, path, unnamed=True):
+            yield tmp
+            os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    os.replace(tmp, path)
+
+
+def _temp_name(path: Path, suffix: str = "") -> Path:
+    """A new temporary name beside ``path``, with this process's pid, within the file system's name length (the
+    target's name is shortened as needed: a 250-character name gets a temporary name too)."""
+    tag = f".{_TEMP_TAG}-{os.getpid()}-{secrets.token_hex(4)}{suffix}"
+    room = _name_max(path.parent) - len(os.fsencode(f".{tag}"))
+    base = path.name
+    while base and len(os.fsencode(base)) > room:
+        base = base[:-1]
+    return path.with_name(f".{base}{tag}")
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) the file system of ``folder`` takes; POSIX's usual 255 if it does not say."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return 255
+
+
+def remove_stale_temps(folder: Path) -> list[Path]:
+    """Remove the temporary files and folders in ``folder`` whose writer is no longer running (killed, so it could not
+    clean up), and return them.  A temporary of a live process is never touched; nor is one whose pid a new process
+    has taken since (kept, harmless).  Best effort: what cannot be removed stays for a later run."""
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _TEMP.match(entry.name)
+        if match is None or _alive(int(match[1])):
+            continue
+        try:
+            shutil.rmtree(entry.path) if entry.is_dir(follow_symlinks=False) else os.unlink(entry.path)
+        except OSError:
+            continue
+        removed.append(Path(entry.path))
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` runs on this machine (signal 0 tests for it without sending anything)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's
+        return True
+    except (OverflowError, ValueError):
+        return False
+    return True
+
+
+@contextmanager
+def _named_as(temp: Path, final: Path, unnamed: bool):
+    """Re-raise an :class:`OSError` about ``temp`` (or a path in it) as one about ``final`` (the matching path in it):
+    users know the file they asked for, not its temporary name.  With ``unnamed``, a system error naming no file
+    (h5py's) is taken to be about ``final`` too."""
+    try:
+        yield
+    except OSError as exc:
+        name = _renamed(exc, temp, final, unnamed)
+        if name is None:
+            raise
+        raise OSError(exc.errno, _strerror(exc), str(name)) from exc
+
+
+def _renamed(exc: OSError, temp: Path, final: Path, unnamed: bool) -> Path | None:
+    if exc.filename is None:
+        return final if unnamed and exc.errno in errno.errorcode else None
+    try:
+        return final / Path(os.fsdecode(exc.filename)).relative_to(temp)
+    except (TypeError, ValueError):
+        return None
+
+
+def _strerror(exc: OSError) -> str:
+    """The system's message for ``exc``'s error number; h5py's own messages span lines and name temporary files."""
+    if exc.errno in errno.errorcode:
+        return os.strerror(exc.errno)
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an operating-system error: ``<path>: <strerror>`` (the CLI's ``cocomopl: error: ...``)."""
+    text = _strerror(exc)
+    if exc.filename is not None:
+        text = f"{os.fsdecode(exc.filename) if isinstance(exc.filename, bytes) else exc.filename}: {text}"
+    return " ".join(text.splitlines())
 
 
 def write_json(path: Path, payload: dict) -> Path:

@@ -150,9 +150,10 @@ def walk_report(
 
     ``out_dir`` receives ``motions.h5`` (the generated and the measured motion),
     ``metrics.json``, comparison plots (ZMP, contact forces, knee torques, leg joints),
-    ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view.
-    A run that fails or is interrupted leaves nothing of its own behind.  ``dt``,
-    ``first_swing`` and ``strict`` are :func:`generate_walk`'s.
+    ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
+    written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
+    interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
+    :func:`generate_walk`'s.
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -161,20 +162,20 @@ def walk_report(
 
     started = time.perf_counter()
     provenance = walk_provenance(command, model_path)  # a missing model is refused before anything is written
-    walk = generate_walk(lengths, model_path, dt, first_swing, strict)
-    with report_folder(out_dir) as out_dir:
+    with report_folder(out_dir, inputs=[bundled_model_path(model_path)]) as work:
+        walk = generate_walk(lengths, model_path, dt, first_swing, strict)
         rollout, metrics = simulate_walk(
-            walk.robot, walk.motion, stabilizer, out_dir / "walk.mp4" if video else None, progress,
+            walk.robot, walk.motion, stabilizer, work / "walk.mp4" if video else None, progress,
             contact_time_constant, reference_cutoff_hz,
         )
         motions = {"generated": walk.motion, "simulated": rollout.measured}
-        files = [out_dir / "motions.h5"]
+        files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
-        files += plot_comparison(walk.robot, motions, out_dir)
+        files += plot_comparison(walk.robot, motions, work)
         title = f"cocomopl walk {','.join(f'{1000 * x:g}' for x in lengths)} mm"
-        files.append(write_html_viewer(walk.robot, rollout.measured, out_dir / "walk.html", title=title))
+        files.append(write_html_viewer(walk.robot, rollout.measured, work / "walk.html", title=title))
         if video:
-            files.append(out_dir / "walk.mp4")
+            files.append(work / "walk.mp4")
         payload = {
             "lengths_mm": [1000 * x for x in lengths],
             "steps": [s.spec.name for s in walk.steps],
@@ -186,11 +187,11 @@ def walk_report(
             "placement_s": walk.placement_s,
             "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
             "warnings": walk.warnings,
-            "files": [str(f) for f in files + [out_dir / "metrics.json"]],
+            "files": _report_files(out_dir, files, "metrics.json"),
             "provenance": provenance,
         }
         payload["wall_time_s"] = time.perf_counter() - started
-        write_json(out_dir / "metrics.json", payload)
+        write_json(work / "metrics.json", payload)
     return payload
 
 
@@ -222,22 +223,45 @@ def reproduce_report(
     stabilizer; the analogue of Table I (mean torques) and of Figs. 6, 8 and 9.
 
     ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` with
-    every metric, and the comparison PNGs; the model and dataset default to the bundled ones.
+    every metric, and the comparison PNGs, written as a unit as :func:`walk_report`'s; the
+    model and dataset default to the bundled ones.
     """
+    from cocomopl.analysis.report_plots import plot_comparison
+    from cocomopl.motion_file import report_folder, write_json, write_motions
+
+    started = time.perf_counter()
+    dataset_path = bundled_dataset_path(dataset_path)
+    provenance = walk_provenance(command, model_path, dataset=dataset_path)
+    with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
+        robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress,
+                                                               contact_time_constant, reference_cutoff_hz)
+        payload["provenance"] = provenance
+        motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
+                   for name, m in by_name.items()}
+        files = [work / "motions.h5"]
+        write_motions(files[0], motions, {"robot": robot.name, "producer": "cocomopl reproduce", **provenance})
+        compared = {"MP planned": planned["MP"], **{f"{name} simulated": m for name, m in simulated.items()}}
+        files += plot_comparison(robot, compared, work)
+        payload["files"] = _report_files(out_dir, files, "table1.json")
+        payload["wall_time_s"] = time.perf_counter() - started
+        write_json(work / "table1.json", payload)
+    return payload
+
+
+def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_time_constant: float | None,
+                      reference_cutoff_hz: float | None) -> tuple[Robot, dict, dict, dict]:
+    """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "OC",
+    "Kajita") and the summary without provenance, files and wall time."""
     import dataclasses
 
     import numpy as np
 
     from cocomopl.analysis.metrics import force_variation, mean_torque, total_force_variation
-    from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.baselines.kajita import kajita_walk
     from cocomopl.dynamics import GRAVITY
-    from cocomopl.motion_file import load_robot, read_motions, report_folder, write_json, write_motions
+    from cocomopl.motion_file import load_robot, read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
 
-    started = time.perf_counter()
-    dataset_path = bundled_dataset_path(dataset_path)
-    provenance = walk_provenance(command, model_path, dataset=dataset_path)
     dataset, attrs = read_motions(dataset_path, dataset=True, signals=True)
     _refuse_failing_dataset(load_robot(next(iter(dataset.values())).robot), dataset_path, dataset, attrs)
     walk = generate_walk(list(M_GEN), model_path)
@@ -286,15 +310,11 @@ def reproduce_report(
         "m_opt_solve_s": solve_s,
         "m_opt_solver": m_opt.meta.get("solver"),
         "generation_s": walk.generation_s,
-        "provenance": provenance,
     }
-    motions = {f"{name} planned": m for name, m in planned.items()} | {f"{name} simulated": m for name, m in simulated.items()}
-    with report_folder(out_dir) as out_dir:
-        files = [out_dir / "motions.h5"]
-        write_motions(files[0], {k.replace(" ", "_"): m for k, m in motions.items()},
-                      {"robot": robot.name, "producer": "cocomopl reproduce", **provenance})
-        files += plot_comparison(robot, {"MP planned": walk.motion, **{f"{k} simulated": m for k, m in simulated.items()}}, out_dir)
-        payload["files"] = [str(f) for f in files + [out_dir / "table1.json"]]
-        payload["wall_time_s"] = time.perf_counter() - started
-        write_json(out_dir / "table1.json", payload)
-    return payload
+    return robot, planned, simulated, payload
+
+
+def _report_files(out_dir: str | Path, written: list[Path], summary: str) -> list[str]:
+    """The paths a report's files will have once its folder is in place: those ``written`` in the temporary folder,
+    and the JSON ``summary`` that lists them (written last)."""
+    return [str(Path(out_dir) / name) for name in [*(f.name for f in written), summary]]

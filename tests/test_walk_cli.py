@@ -11,8 +11,9 @@ import time
 import h5py
 import pytest
 
-from cocomopl.data import BUNDLED_MODEL
-from cocomopl.motion_file import file_attrs, read_motion, report_folder
+from cocomopl.cli import main
+from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
+from cocomopl.motion_file import REPORT_MARKER, file_attrs, read_motion
 from cocomopl.provenance import file_identity
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ
 
@@ -38,7 +39,9 @@ def test_walk_writes_its_report(walk_report):
     assert {"motions.h5", "metrics.json", "walk.html", "zmp_comparison.png", "force_comparison.png",
             "knee_torque_comparison.png", "leg_joint_comparison.png"} <= names
     assert "walk.mp4" not in names  # --no-video
-    assert not [n for n in names if n.startswith(".")]  # no temporary file left behind
+    assert not [n for n in names if n.startswith(".") and n != REPORT_MARKER]  # no temporary file left behind
+    assert json.loads((out / REPORT_MARKER).read_text())["files"] == sorted(names - {REPORT_MARKER})
+    assert [p.name for p in out.parent.iterdir()] == ["report"]  # nor a temporary folder beside it
     with h5py.File(out / "motions.h5") as f:
         assert set(f["motions"]) == {"generated", "simulated"}
     assert f"report in {out}/ (" in result.stdout and "//" not in result.stdout
@@ -102,7 +105,7 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, words):
     result = run_cli(*args, *extra, cwd=tmp_path)
     assert_one_line_error(result, *words)
     assert result.stderr.startswith("cocomopl: error: ")
-    assert not out.exists() and not (tmp_path / "m.h5").exists()
+    assert list(tmp_path.iterdir()) == []  # not the report, not a temporary folder
 
 
 def test_foreign_motion_file_and_unwritable_folder(tmp_path):
@@ -115,30 +118,37 @@ def test_foreign_motion_file_and_unwritable_folder(tmp_path):
     assert_one_line_error(run_cli("walk", "--lengths-mm", "250,250", "--out", str(blocker / "report")), "cannot")
 
 
-def test_a_failed_report_removes_what_it_added(tmp_path):
-    new = tmp_path / "new"
-    with pytest.raises(KeyboardInterrupt), report_folder(new) as folder:
-        (folder / "motions.h5").write_text("half")
-        raise KeyboardInterrupt
-    assert not new.exists()
-    kept = tmp_path / "kept"
-    kept.mkdir()
-    (kept / "notes.txt").write_text("mine")
-    with pytest.raises(RuntimeError), report_folder(kept) as folder:
-        (folder / "walk.html").write_text("half")
-        raise RuntimeError
-    assert [p.name for p in kept.iterdir()] == ["notes.txt"]
-
-
 def test_interrupting_walk_leaves_no_report(tmp_path):
     out = tmp_path / "report"
-    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--out", str(out), "--no-video"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while not out.exists() and process.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.05)  # interrupt once the report folder exists: the simulation is running
+    process = start_walk(out)
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr
     assert "cocomopl: interrupted" in stderr and "Traceback" not in stderr
-    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_killed_walk_leaves_the_old_report_and_the_next_run_cleans_up(tmp_path):
+    out = tmp_path / "report"
+    assert main(["plot", str(BUNDLED_DATASET), "--motion", "cyclic_250_L", "--out", str(out)]) == 0
+    old = {p.name: p.read_bytes() for p in out.iterdir()}
+    process = start_walk(out)
+    process.kill()  # SIGKILL: no chance to clean up
+    process.communicate(timeout=120)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == old  # the old report, not a mix
+    (stale,) = [p for p in tmp_path.iterdir() if p != out]
+    assert stale.name.startswith(f".report.cocomopl-tmp-{process.pid}-")  # recognisable as the killed run's
+    assert main(["plot", str(BUNDLED_DATASET), "--motion", "cyclic_250_L", "--out", str(tmp_path / "plots")]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plots", "report"]
+
+
+def start_walk(out) -> subprocess.Popen:
+    """``cocomopl walk --out OUT`` in a new process, once it has started to build its report."""
+    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--out", str(out), "--no-video"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while process.poll() is None and time.monotonic() < deadline:
+        if any(p.name.startswith(f".{out.name}.cocomopl-tmp-") for p in out.parent.iterdir()):
+            return process
+        time.sleep(0.02)
+    pytest.fail(f"walk did not start a report: {process.communicate()}")

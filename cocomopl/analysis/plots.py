@@ -6,14 +6,13 @@ function, one colour per side, a palette for many lines, legends beside the axes
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from cocomopl.dynamics import SIDES, sole_placements
 from cocomopl.motion import Motion
-from cocomopl.motion_file import writable_folder
+from cocomopl.motion_file import atomic_path, writable_folder
 from cocomopl.robot import Robot
 
 # matplotlib's tab:blue and tab:red, in hex so that the HTML viewer can draw the same colours
@@ -31,13 +30,14 @@ def pyplot():
 
 
 def save_figure(fig, path: Path) -> Path:
-    """Save a PNG atomically (a temporary file renamed into place) and close the figure."""
-    tmp = path.with_name(f".{path.name}.tmp.png")
+    """Save a PNG atomically (:func:`~cocomopl.motion_file.atomic_path`) and close the figure."""
     fig.tight_layout()
-    # "tight" grows the image to hold the legends drawn beside the axes
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)
-    pyplot().close(fig)
+    try:
+        with atomic_path(Path(path), suffix=".png") as tmp:
+            # "tight" grows the image to hold the legends drawn beside the axes
+            fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    finally:
+        pyplot().close(fig)
     return path
 
 
