@@ -118,8 +118,9 @@ def test_plot_unknown_motion(small_dataset, tmp_path):
 
 def test_plot_writes_four_pngs(small_dataset, tmp_path, capsys):
     assert main(["plot", str(small_dataset), "--motion", "cyclic_200_L", "--out", str(tmp_path / "p")]) == 0
-    files = sorted(p.name for p in (tmp_path / "p").iterdir())
+    files = sorted(p.name for p in (tmp_path / "p").iterdir() if p.suffix == ".png")
     assert files == ["contact_forces.png", "joint_angles.png", "torques.png", "zmp.png"]
+    assert (tmp_path / "p" / ".cocomopl-report.json").exists()  # marks the folder as a report
     for name in files:
         assert (tmp_path / "p" / name).read_bytes()[:4] == b"\x89PNG"
 

@@ -15,7 +15,7 @@ import cocomopl
 
 PACKAGE = Path(cocomopl.__file__).parent
 ROOT = PACKAGE.parent
-CORE = {"cocomopl", "errors", "motion", "motion_file", "provenance", "robot", "gait", "kinematics", "dynamics",
+CORE = {"cocomopl", "errors", "motion", "motion_file", "validation", "provenance", "robot", "gait", "kinematics", "dynamics",
         "analysis", "data"}
 STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "pipeline", "jobs", "cli",
           "__main__"]
