@@ -55,6 +55,10 @@ def _other_model(motions, attrs):
     return {CYCLIC.name: motions[CYCLIC.name]}, {**attrs, "robot_model": "0" * 16}
 
 
+def _saved_by_an_older_version(motions, attrs):
+    return {CYCLIC.name: motions[CYCLIC.name]}, {"content": "part", "settings": attrs["settings"]}
+
+
 def _short_of_a_joint(motions, attrs):
     motion = motions[CYCLIC.name]
     motion.q = motion.q[:, :-1]
@@ -77,6 +81,7 @@ SPOILT = {
     "settings": (_other_settings, ["other OCP settings", "dt 0.04, now 0.05"]),
     "robot": (_other_robot, ["the robot 'romeo', not 'talos'"]),
     "robot model": (_other_model, ["another model of talos"]),
+    "older version": (_saved_by_an_older_version, ["records no robot model"]),
     "shape": (_short_of_a_joint, ["its q has shape"]),
     "two motions": (_two_motions, ["it holds 2 motions"]),
     "incomplete meta": (_no_solver_statistics, ["solver's statistics"]),

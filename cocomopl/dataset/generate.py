@@ -165,7 +165,9 @@ def _settings_problem(saved, current: dict) -> str | None:
 
 def _robot_problem(attrs: dict, motion: Motion, expected: dict, robot: Robot) -> str | None:
     """Why a part's robot is not ``robot`` (``expected``: :func:`part_attrs`), or None."""
-    for name in (attrs.get("robot"), motion.robot):
+    if "robot" not in attrs or "robot_model" not in attrs:
+        return "it records no robot model (an older cocomopl saved it)"
+    for name in (attrs["robot"], motion.robot):
         if name != robot.name:
             return f"it is for the robot {name!r}, not {robot.name!r}"
     if attrs.get("robot_model") != expected["robot_model"] or list(motion.joint_names) != list(robot.joint_names):
