@@ -93,6 +93,18 @@ def _training_lengths_mm(text: str) -> tuple[float, ...]:
     return _checked(parse_lengths_mm, text)
 
 
+def _knot_spacing(text: str) -> float:
+    from cocomopl.dataset.generate import check_dt
+
+    return _checked(check_dt, _positive_float(text))
+
+
+def _dataset_workers(text: str) -> int:
+    from cocomopl.dataset.generate import check_workers
+
+    return _checked(check_workers, _positive_int(text))
+
+
 def _int_list(text: str) -> tuple[int, ...]:
     try:
         if not text.isascii():
@@ -394,6 +406,7 @@ def _synthesis_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _dataset_parsers(sub) -> None:
+    from cocomopl.dataset.generate import DT_RANGE_S, MIN_PHASE_KNOTS, WORKERS_PER_CORE
     from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_LENGTHS_M
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.robot import DEFAULT_ROBOT
@@ -413,11 +426,16 @@ def _dataset_parsers(sub) -> None:
     gen.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
                      help="bundled robot name or robot description file (default: %(default)s)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", metavar="FILE.h5", help="output HDF5 file (default: %(default)s)")
-    gen.add_argument("--workers", type=_positive_int, metavar="N",
-                     help="local worker processes (default: one per core, at most one per step length)")
+    gen.add_argument("--workers", type=_dataset_workers, metavar="N",
+                     help=f"local worker processes, at most {WORKERS_PER_CORE} per core (default: one per core, at "
+                     "most one per step length)")
     gen.add_argument("--scheduler", metavar="ADDRESS",
                      help="run on an existing Dask cluster, e.g. tcp://host:8786 (needs the [cluster] extra)")
-    gen.add_argument("--dt", type=_positive_float, metavar="S", help=f"knot spacing in s (default: {defaults.dt:g})")
+    low, high = DT_RANGE_S
+    gen.add_argument("--dt", type=_knot_spacing, metavar="S",
+                     help=f"knot spacing in s, {low:g} to {high:g} (default: {defaults.dt:g}): coarser knots leave "
+                     f"the {defaults.ds_duration * 1000:g} ms double support fewer than {MIN_PHASE_KNOTS} knots, finer "
+                     "ones only add solve time")
     gen.add_argument("--max-iterations", type=_positive_int, metavar="N",
                      help=f"solver iterations per attempt, a count (default: {defaults.max_iterations})")
     gen.add_argument("--load-transfer-weight", type=_non_negative_float, metavar="W",

@@ -15,6 +15,7 @@ from cocomopl.cli import main
 from cocomopl.dataset.plan import DEFAULT_LENGTHS_M, default_transitions, training_specs
 from cocomopl.errors import Error
 from cocomopl.gait import parse_transitions_mm
+from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
 from cocomopl.ocp.settings import OCPSettings
 
@@ -84,11 +85,11 @@ def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
     assert "inverse_dynamics_residual" in report["failures"]
 
 
-def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset):
+def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset, robot):
     """A run killed (SIGKILL) while it solves leaves the steps saved before it untouched and
     writes no dataset; the same run again reuses them and solves only the rest.  The saved
     steps are the small dataset's cyclic and stop steps, as a killed earlier run leaves them."""
-    from cocomopl.motion_file import write_motions
+    from cocomopl.dataset.generate import part_attrs, write_part
 
     out = tmp_path / "resume.h5"
     parts = tmp_path / "resume.h5.parts"
@@ -96,7 +97,7 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset):
     solved, _ = read_motions(small_dataset)
     names = [f"{kind}_{SMALL_LENGTH * 1000:g}_L" for kind in ("cyclic", "stop")]
     for name in names:
-        write_motions(parts / f"{name}.h5", {name: solved[name]}, {"content": "part", "settings": SMALL.as_dict()})
+        write_part(parts, solved[name].steps[0], solved[name], part_attrs(SMALL, robot))
     saved = {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")}
     # the small dataset's settings (its phase durations are no CLI options), as the CLI calls it
     script = ("import json, sys; from cocomopl.dataset.generate import generate; from cocomopl.ocp.settings import "
@@ -125,43 +126,26 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset):
         np.testing.assert_array_equal(motions[name].q, solved[name].q)
 
 
-def test_a_part_solved_with_other_settings_is_solved_again(tmp_path, small_dataset):
-    """A rerun reuses a saved step only if it was solved with the same OCP settings: after
-    an interrupted run, the same command with another option must not mix the two."""
-    from dataclasses import replace
-
-    from cocomopl.dataset.generate import _finished_part
-    from cocomopl.motion_file import write_motions
-
-    motions, _ = read_motions(small_dataset)
-    name, motion = next(iter(motions.items()))
-    part = tmp_path / f"{name}.h5"
-    write_motions(part, {name: motion}, {"content": "part", "settings": SMALL.as_dict()})
-    assert _finished_part(part, SMALL).t.tolist() == motion.t.tolist()
-    assert _finished_part(part, replace(SMALL, min_knee_flexion=0.3)) is None
-    assert not part.exists()
-    part.write_bytes(b"not HDF5")  # a part damaged by the kill
-    assert _finished_part(part, SMALL) is None and not part.exists()
-
-
-def test_dask_cluster_path(tmp_path, small_dataset):
+def test_dask_cluster_path(tmp_path, small_dataset, robot, capsys):
     """The OCPs run on a Dask cluster.  The small dataset's cyclic and stop steps are left
-    as parts of an interrupted run, so the cluster solves only the start step."""
+    as parts of an interrupted run, and its cyclic step copied over the start step's part:
+    that part is not reused, the cluster solves only the start step, and the dataset holds
+    every step under its own name (a reused copy would leave one out)."""
     distributed = pytest.importorskip("dask.distributed")
-    from cocomopl.dataset.generate import generate
-    from cocomopl.motion_file import write_motions
+    from cocomopl.dataset.generate import generate, part_attrs, write_part
 
     out = tmp_path / "dask.h5"
     parts = tmp_path / "dask.h5.parts"
-    parts.mkdir()
     solved, _ = read_motions(small_dataset)
-    for name in (f"cyclic_{SMALL_LENGTH * 1000:g}_L", f"stop_{SMALL_LENGTH * 1000:g}_L"):
-        write_motions(parts / f"{name}.h5", {name: solved[name]}, {"content": "part", "settings": SMALL.as_dict()})
+    cyclic, stop = (solved[f"{kind}_{SMALL_LENGTH * 1000:g}_L"] for kind in ("cyclic", "stop"))
+    for spec, motion in ((cyclic.steps[0], cyclic), (stop.steps[0], stop), (StepSpec("start", 0.0, SMALL_LENGTH), cyclic)):
+        write_part(parts, spec, motion, part_attrs(SMALL, robot))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         summary = generate(out, (SMALL_LENGTH,), settings=SMALL, scheduler=cluster.scheduler_address, progress=False)
+    assert f"cocomopl: warning: not reusing {parts / 'start_200_L.h5'}: it holds cyclic_200_L\n" in capsys.readouterr().err
     assert (summary["failed"], summary["reused"], summary["solved"]) == ([], 2, 1)
     motions, attrs = read_motions(out)
-    assert len(motions) == 6
+    assert sorted(motions) == sorted(solved) and all(motion.name == name for name, motion in motions.items())
     assert attrs["scheduler"] == cluster.scheduler_address
 
 

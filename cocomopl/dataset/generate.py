@@ -10,6 +10,8 @@ and left out of the training data.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
+import hashlib
 import json
 import multiprocessing
 import os
@@ -34,6 +36,19 @@ from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import length_steps, phase_durations, solve_length, solve_transition, to_motion
 from cocomopl.provenance import versions
 from cocomopl.robot import DEFAULT_ROBOT, Robot, mirror_motion
+
+MIN_PHASE_KNOTS = 3
+# --dt, s: at most the default double support over MIN_PHASE_KNOTS, so that the weight
+# transfer between touchdown and lift-off has a knot between them (coarser knots also
+# stretch the phases, whose knot counts are rounded up to 2); at least 5 ms, the rate of the
+# seqplay export: finer knots add solve time (knots ~ 1/dt) that no exported motion carries
+DT_RANGE_S = (0.005, round(OCPSettings().ds_duration / MIN_PHASE_KNOTS, 6))
+# local processes per core: each OCP job runs one thread (OMP_NUM_THREADS=1, set in
+# cocomopl/__init__.py), so more only time-share the cores, each with its own copy of the
+# robot model and solver in memory
+WORKERS_PER_CORE = 4
+SCHEDULER_TIMEOUT_S = 10.0  # to reach a Dask scheduler
+_FINITE = ("t", "q", "v", "tau", "wrenches", "zmp")
 
 
 @dataclass
@@ -68,7 +83,9 @@ def length_job(
     return result
 
 
-def transition_job(robot_source: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion) -> JobResult:
+def transition_job(
+    robot_source: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion
+) -> JobResult:
     """A transition step (runs in a worker: plain data in and out); see
     :func:`~cocomopl.ocp.solve.solve_transition`."""
     motion, attempts = solve_transition(Robot(robot_source), OCPSettings(**settings), spec, cyclic_from, cyclic_to)
@@ -77,24 +94,168 @@ def transition_job(robot_source: str, settings: dict, spec: StepSpec, cyclic_fro
     return JobResult(motions={spec: motion})
 
 
+def check_dt(dt: float) -> float:
+    """``dt`` (s) if within :data:`DT_RANGE_S`, the knot spacings the command line accepts
+    for the default phase durations; else :class:`Error` naming the range."""
+    low, high = DT_RANGE_S
+    if not low <= dt <= high:
+        raise Error(
+            f"{dt:g} s is outside {low:g}..{high:g} s: coarser knots leave the {OCPSettings().ds_duration * 1000:g} ms "
+            f"double support fewer than {MIN_PHASE_KNOTS} knots, finer ones only add solve time"
+        )
+    return dt
+
+
+def max_workers() -> int:
+    """The most local worker processes :func:`generate` starts: :data:`WORKERS_PER_CORE` per core."""
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
+def check_workers(workers: int) -> int:
+    """``workers`` if at most :func:`max_workers`, else :class:`Error`."""
+    if workers > max_workers():
+        raise Error(
+            f"{workers} worker processes are more than {WORKERS_PER_CORE} per core (at most {max_workers()} on "
+            f"{os.cpu_count() or 1} cores): the OCPs would only share the cores"
+        )
+    return workers
+
+
+def robot_fingerprint(robot: Robot) -> str:
+    """A digest of what the OCPs see of ``robot``: its description (without the paths of its
+    files, which change when a checkout moves) and the numbers of its reduced model, so that
+    an edited description or URDF under the same robot name tells apart."""
+    description = {key: value for key, value in robot.description.items() if key not in ("urdf", "srdf")}
+    digest = hashlib.sha256(json.dumps(description, sort_keys=True).encode())
+    digest.update(json.dumps(list(robot.model.names)).encode())
+    numbers = [robot.q_ref, robot.q_lower, robot.q_upper, robot.v_max, robot.tau_max]
+    numbers += [np.r_[body.mass, body.lever, body.inertia.ravel()] for body in robot.model.inertias]
+    numbers += [placement.homogeneous for placement in robot.model.jointPlacements]
+    numbers += [frame.placement.homogeneous for frame in robot.model.frames]
+    for values in numbers:  # rounded: a digest of the values, not of their last bits
+        digest.update(np.round(np.asarray(values, dtype=float), 9).tobytes())
+    return digest.hexdigest()[:16]
+
+
+def part_attrs(settings: OCPSettings, robot: Robot) -> dict:
+    """The file attributes of a part: what a rerun compares before it reuses the part."""
+    return {"content": "part", "settings": settings.as_dict(), "robot": robot.name,
+            "robot_model": robot_fingerprint(robot)}
+
+
 def _part_path(parts: Path, spec: StepSpec) -> Path:
     return parts / f"{spec.name}.h5"
 
 
-def _finished_part(path: Path, settings: OCPSettings) -> Motion | None:
-    """The motion of a part file saved by an earlier run with the same OCP settings, or
-    None.  A damaged part, or one solved with other settings (a rerun with another
-    option), is deleted: its step is solved again."""
-    if not path.exists():
-        return None
+def write_part(parts: Path, spec: StepSpec, motion: Motion, attrs: dict) -> None:
+    """Save the solved step ``spec`` in the folder ``parts``, with :func:`part_attrs`."""
+    write_motions(_part_path(parts, spec), {spec.name: motion}, attrs)
+
+
+def _settings_problem(saved, current: dict) -> str | None:
+    """Why the settings ``saved`` with a part are not ``current``, or None."""
+    if not isinstance(saved, dict):
+        return "it records no OCP settings"
+    changed = [key for key in sorted(set(saved) | set(current)) if saved.get(key) != current.get(key)]
+    if changed:
+        return "it was solved with other OCP settings (" + ", ".join(
+            f"{key} {saved.get(key, 'unset')}, now {current.get(key, 'unset')}" for key in changed) + ")"
+    return None
+
+
+def _robot_problem(attrs: dict, motion: Motion, expected: dict, robot: Robot) -> str | None:
+    """Why a part's robot is not ``robot`` (``expected``: :func:`part_attrs`), or None."""
+    if "robot" not in attrs or "robot_model" not in attrs:
+        return "it records no robot model (an older cocomopl saved it)"
+    for name in (attrs["robot"], motion.robot):
+        if name != robot.name:
+            return f"it is for the robot {name!r}, not {robot.name!r}"
+    if attrs.get("robot_model") != expected["robot_model"] or list(motion.joint_names) != list(robot.joint_names):
+        return f"it was solved for another model of {robot.name} (its description, URDF or joints differ)"
+    return None
+
+
+def _shape_problem(motion: Motion, robot: Robot) -> str | None:
+    """Why a part's arrays do not have the robot's shapes, or None."""
+    if np.ndim(motion.t) != 1 or len(motion.t) < 2:
+        return f"its t has shape {np.shape(motion.t)}, not (n,) with n >= 2"
+    n, nv = len(motion.t), robot.model.nv
+    shapes = {"q": (n, robot.model.nq), "v": (n, nv), "tau": (n, robot.nu), "wrenches": (n, 2, 6),
+              "contact": (n, 2), "zmp": (n, 3)}
+    for name, shape in shapes.items():
+        value = getattr(motion, name)
+        if value.shape != shape or value.dtype.kind not in "biuf":
+            return f"its {name} has shape {value.shape} of {value.dtype}, not {shape} numbers"
+    return None
+
+
+def _content_problem(motion: Motion, robot: Robot) -> str | None:
+    """Why a part's motion is incomplete or not finite, or None."""
+    problem = _shape_problem(motion, robot)
+    if problem:
+        return problem
+    for name in _FINITE:
+        if not np.isfinite(getattr(motion, name)).all():
+            return f"its {name} holds NaN or infinite values"
+    n = len(motion.t)
+    indices = np.r_[motion.impacts, motion.step_starts, [i for _, first, last in motion.phases for i in (first, last)]]
+    if not motion.phases or indices.min() < 0 or indices.max() >= n:
+        return f"its phases, impacts or step starts are not sample indices 0..{n - 1}"
+    solver = motion.meta.get("solver") if isinstance(motion.meta, dict) else None
+    if not isinstance(solver, dict) or not isinstance(solver.get("solve_time_s"), (int, float)):
+        return "it lacks the solver's statistics"
+    return None
+
+
+def _part_problem(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> tuple[Motion | None, str | None]:
+    """The motion of the part file ``path`` and why it is not the step ``spec`` solved as
+    ``expected`` (:func:`part_attrs`) for ``robot`` (None if it is)."""
     try:
         motions, attrs = read_motions(path)
-    except Error:
-        motions, attrs = {}, {}
-    if attrs.get("settings") != json.loads(json.dumps(settings.as_dict())) or len(motions) != 1:
-        path.unlink()
+    except Error as exc:  # the reader's message names the file, the warning names it already
+        return None, str(exc).replace(str(path), "it", 1)
+    if len(motions) != 1:
+        return None, f"it holds {len(motions)} motions, not one"
+    motion = next(iter(motions.values()))
+    if motion.steps != [spec]:
+        return motion, f"it holds {motion.name}"
+    current = json.loads(json.dumps(expected["settings"]))  # as read back: tuples are lists
+    problem = _settings_problem(attrs.get("settings"), current) or _robot_problem(attrs, motion, expected, robot)
+    return motion, problem or _content_problem(motion, robot)
+
+
+def _finished_part(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> Motion | None:
+    """The motion of the part ``path`` saved by an earlier run, or None.
+
+    It is reused only if it is the step ``spec`` its name stands for, solved with the same
+    settings for the same robot (``expected``: :func:`part_attrs`), complete and finite.
+    Any other part is deleted with a one-line warning on stderr: its step is solved again.
+    """
+    if not path.exists():
         return None
-    return next(iter(motions.values()))
+    motion, problem = _part_problem(path, spec, expected, robot)
+    if problem is None:
+        return motion
+    print(f"cocomopl: warning: not reusing {path}: {problem}", file=sys.stderr)
+    with contextlib.suppress(OSError):  # a rerun must not warn about it again
+        path.unlink()
+    return None
+
+
+@contextlib.contextmanager
+def _working_folder(parts: Path, output: Path):
+    """Yield ``parts``, the working folder of ``output``, created if needed.
+
+    If the block fails or is interrupted, the parts of the OCPs finished stay for a rerun
+    to resume from, but the folder goes if it holds none: there is nothing to resume.
+    """
+    writable_folder(parts, f"the working folder {parts} of {output}")
+    try:
+        yield parts
+    except BaseException:
+        with contextlib.suppress(OSError):  # rmdir removes only an empty folder
+            parts.rmdir()
+        raise
 
 
 class _Executor:
@@ -106,9 +267,12 @@ class _Executor:
             try:
                 from dask.distributed import Client
             except ImportError:
-                raise Error("--scheduler needs the [cluster] extra: pip install 'cocomopl[cluster]' (or pip install -e '.[cluster]')") from None
+                raise Error(
+                    "--scheduler needs the [cluster] extra: pip install 'cocomopl[cluster]' "
+                    "(or pip install -e '.[cluster]')"
+                ) from None
             try:
-                self.client = Client(scheduler, timeout=10)
+                self.client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
             except (OSError, TimeoutError, ValueError) as exc:
                 raise Error(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         else:
@@ -165,10 +329,19 @@ def generate(
     """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them;
     None: :func:`~cocomopl.dataset.plan.default_transitions`) and write the dataset to ``output``.
 
-    Returns a summary: solved, reused, failed steps and timings.
-    """
-    from tqdm import tqdm
+    Parts of an earlier run in ``<output>.parts/`` are reused if they pass
+    :func:`_finished_part`.  ``workers`` local processes (at most :func:`max_workers`), or
+    the Dask cluster at ``scheduler``, solve the rest.  The command line also bounds
+    ``settings.dt`` to :data:`DT_RANGE_S`; this function takes any.
 
+    Returns a summary: solved, reused, failed steps and timings.
+
+    Raises
+    ------
+    Error
+        On bad input, an unreachable scheduler, or if no OCP converged: then no dataset is
+        written (a file already at ``output`` stays as it was).
+    """
     settings = settings or OCPSettings()
     if extra_transitions is None:
         extra_transitions = default_transitions(lengths)
@@ -176,26 +349,64 @@ def generate(
     check_stances(robot, lengths, settings)
     output = Path(output)
     parts = output.with_name(output.name + ".parts")
-    workers = workers or max(1, min(len(lengths), os.cpu_count() or 1))
+    workers = check_workers(workers or max(1, min(len(lengths), os.cpu_count() or 1)))
+    specs = training_specs(lengths, extra_transitions)
     executor = _Executor(workers, scheduler)  # an unreachable cluster is refused before anything is written
     try:
-        writable_folder(parts, f"the working folder {parts} of {output}")
-    except Error:
+        with _working_folder(parts, output):
+            attrs = part_attrs(settings, robot)
+            done = {spec: motion for spec in specs
+                    if (motion := _finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None}
+            reused = len(done)
+            start = time.perf_counter()
+            where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
+            failed = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where, progress)
+            wall = time.perf_counter() - start
+            if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
+                raise Error(
+                    f"no OCP converged with these settings (dt {settings.dt:g} s, at most {settings.max_iterations} "
+                    f"iterations per attempt; {len(specs)} OCPs); nothing written"
+                )
+            run = {"lengths_m": list(lengths), "extra_transitions_m": [list(pair) for pair in extra_transitions],
+                   "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
+                   "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
+                   "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes"}
+            motions = _write_dataset(output, robot, specs, done, run)
+    finally:
         executor.close()
-        raise
-    specs = training_specs(lengths, extra_transitions)
-    done: dict[StepSpec, Motion] = {}
-    for spec in specs:
-        motion = _finished_part(_part_path(parts, spec), settings)
-        if motion is not None:
-            done[spec] = motion
-    reused = len(done)
+    if not failed:
+        shutil.rmtree(parts, ignore_errors=True)
+    return {
+        "output": str(output),
+        "ocps": len(specs),
+        "solved": len(done) - reused,
+        "reused": reused,
+        "failed": sorted(failed),
+        "motions": motions,
+        "wall_time_s": wall,
+    }
+
+
+def _solve_missing(
+    executor: _Executor,
+    robot_name: str,
+    settings: OCPSettings,
+    specs: list[StepSpec],
+    done: dict[StepSpec, Motion],
+    parts: Path,
+    attrs: dict,
+    where: str,
+    progress: bool,
+) -> dict[str, list]:
+    """Solve the ``specs`` not in ``done``, adding each converged one to ``done`` and saving
+    it at once in ``parts`` (with ``attrs``).  Returns the attempts of those that failed."""
+    from tqdm import tqdm
+
     failed: dict[str, list] = {}
-    start = time.perf_counter()
     # no ETA: a length's three OCPs finish together after minutes, transitions in seconds
-    bar = tqdm(total=len(specs), initial=reused, desc="OCPs solved", disable=not progress, file=sys.stderr,
+    bar = tqdm(total=len(specs), initial=len(done), desc="OCPs solved", disable=not progress, file=sys.stderr,
                bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed} elapsed{postfix}")
-    bar.set_postfix_str(f"on {workers} local processes" if not scheduler else "on the Dask cluster", refresh=False)
+    bar.set_postfix_str(where, refresh=False)
 
     def note(line: str) -> None:
         if progress:
@@ -205,7 +416,7 @@ def generate(
         for future in executor.as_completed(list(futures)):
             result: JobResult = executor.result(future)
             for spec, motion in result.motions.items():
-                write_motions(_part_path(parts, spec), {spec.name: motion}, {"content": "part", "settings": settings.as_dict()})
+                write_part(parts, spec, motion, attrs)
                 done[spec] = motion
                 solver = motion.meta["solver"]
                 note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
@@ -217,10 +428,11 @@ def generate(
 
     try:
         # lengths first: every transition starts and ends in a cyclic step's start state
-        per_length = {L: [s for s in specs if s.kind != "transition" and L in (s.start_length, s.end_length)] for L in lengths}
+        lengths = [s.start_length for s in specs if s.kind == "cyclic"]  # one per length, in the plan's order
         futures = {}
-        for L, group in per_length.items():
-            missing = [s.kind for s in group if s not in done]
+        for L in lengths:
+            missing = [s.kind for s in specs if s.kind != "transition" and L in (s.start_length, s.end_length)
+                       and s not in done]
             if missing:
                 cyclic = done.get(StepSpec("cyclic", L, L))
                 futures[executor.submit(length_job, robot_name, settings.as_dict(), L, missing, cyclic)] = L
@@ -231,17 +443,20 @@ def generate(
             if spec.kind != "transition" or spec in done:
                 continue
             if spec.start_length in cyclic and spec.end_length in cyclic:
-                futures[executor.submit(
-                    transition_job, robot_name, settings.as_dict(), spec, cyclic[spec.start_length], cyclic[spec.end_length]
-                )] = spec
+                ends = cyclic[spec.start_length], cyclic[spec.end_length]
+                futures[executor.submit(transition_job, robot_name, settings.as_dict(), spec, *ends)] = spec
             else:
                 failed[spec.name] = [{"error": "a cyclic step it joins did not converge"}]
                 bar.update(1)
         collect(futures)
     finally:
         bar.close()
-        executor.close()
-    wall = time.perf_counter() - start
+    return failed
+
+
+def _write_dataset(output: Path, robot: Robot, specs: list[StepSpec], done: dict[StepSpec, Motion], run: dict) -> int:
+    """Write the solved steps ``done`` and their mirror images, with their training signals
+    and ``run``'s attributes, to ``output``.  Returns the number of motions written."""
     motions: dict[str, Motion] = {}
     for spec in specs:
         if spec in done:
@@ -254,34 +469,15 @@ def generate(
         "content": "dataset",
         "robot": robot.name,
         "robot_inertia_symmetrisation_m": robot.inertia_asymmetry,
-        "lengths_m": list(lengths),
-        "extra_transitions_m": [list(pair) for pair in extra_transitions],
-        "ocps": [s.name for s in specs],
-        "failed": failed,
-        "all_converged": not failed,
-        "settings": settings.as_dict(),
+        **run,
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "command": command,
         "versions": versions(["pin", "crocoddyl", "example-robot-data", "numpy", "h5py", "dask"]),
-        "wall_time_s": wall,
-        "workers": 0 if scheduler else workers,
-        "scheduler": scheduler or "local processes",
-        "signal_names": signals[next(iter(signals))]["names"] if signals else [],
+        "signal_names": signals[next(iter(signals))]["names"],
         "continuity": continuity_report(robot, done),
-        "mean_solve_time_s": float(np.mean(solve_times)) if solve_times else None,
+        "mean_solve_time_s": float(np.mean(solve_times)),
     }
     write_motions(output, motions, attrs, signals)
-    if not failed:
-        shutil.rmtree(parts, ignore_errors=True)
-    return {
-        "output": str(output),
-        "ocps": len(specs),
-        "solved": len(done) - reused,
-        "reused": reused,
-        "failed": sorted(failed),
-        "motions": len(motions),
-        "wall_time_s": wall,
-    }
+    return len(motions)
 
 
 def continuity_report(robot: Robot, done: dict[StepSpec, Motion]) -> dict:
