@@ -99,7 +99,7 @@ def _knot_spacing(text: str) -> float:
     return _checked(check_dt, _positive_float(text))
 
 
-def _dataset_workers(text: str) -> int:
+def _workers(text: str) -> int:
     from cocomopl.dataset.generate import check_workers
 
     return _checked(check_workers, _positive_int(text))
@@ -426,7 +426,7 @@ def _dataset_parsers(sub) -> None:
     gen.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
                      help="bundled robot name or robot description file (default: %(default)s)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", metavar="FILE.h5", help="output HDF5 file (default: %(default)s)")
-    gen.add_argument("--workers", type=_dataset_workers, metavar="N",
+    gen.add_argument("--workers", type=_workers, metavar="N",
                      help=f"local worker processes, at most {WORKERS_PER_CORE} per core (default: one per core, at "
                      "most one per step length)")
     gen.add_argument("--scheduler", metavar="ADDRESS",
@@ -474,7 +474,8 @@ def _primitives_parsers(sub) -> None:
                        help="candidate time kernels (default: %s)" % ",".join(DEFAULT_KERNELS))
     train.add_argument("--max-iterations", type=_positive_int, default=DEFAULT_MAX_ITERATIONS, metavar="N",
                        help="L-BFGS-B iterations per candidate, a count (default: %(default)s)")
-    train.add_argument("--workers", type=_positive_int, metavar="N", help="local worker processes (default: one per core)")
+    train.add_argument("--workers", type=_workers, metavar="N",
+                       help="local worker processes, at most 4 per core (default: one per core)")
     _json_option(train)
     train.set_defaults(func=cmd_train)
 

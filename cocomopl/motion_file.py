@@ -509,10 +509,10 @@ def is_dataset(path: str | Path) -> bool:
         return f.attrs.get("content") == "dataset"
 
 
-def read_motions(path: str | Path, finite: bool = True, dataset: bool = False,
-                 signals: bool = False) -> tuple[dict[str, Motion], dict]:
-    """All motions of a file, by name, and its metadata, every one checked against the robot
-    the file names (see :func:`read_motion_group`).
+def read_motions(path: str | Path, finite: bool = True, dataset: bool = False, signals: bool = False,
+                 robot=None) -> tuple[dict[str, Motion], dict]:
+    """All motions of a file, by name, and its metadata, every one checked against ``robot``
+    or, by default, the robot the file names, which must load (see :func:`read_motion_group`).
 
     ``dataset``: the file must be an OC dataset (content "dataset", with its OCP settings).
     ``signals``: also read each motion's training signals, as ``attrs["signals"][name]``.
@@ -528,7 +528,7 @@ def read_motions(path: str | Path, finite: bool = True, dataset: bool = False,
             names = list(f["motions"])
             if not names:
                 raise Error("it holds no motions")
-            robot = load_robot(_file_robot(f, names))
+            robot = robot or load_robot(_file_robot(f, names))
             motions, found = {}, {}
             for name in names:
                 try:

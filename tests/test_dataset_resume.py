@@ -77,12 +77,12 @@ def _no_solver_statistics(motions, attrs):
 
 SPOILT = {
     "copied over": (_copied_over, ["it holds start_200_L"]),
-    "NaN": (_not_finite, ["its q holds NaN"]),
+    "NaN": (_not_finite, ["array 'q' holds", "NaN"]),
     "settings": (_other_settings, ["other OCP settings", "dt 0.04, now 0.05"]),
-    "robot": (_other_robot, ["the robot 'romeo', not 'talos'"]),
+    "robot": (_other_robot, ["robot 'romeo', not 'talos'"]),
     "robot model": (_other_model, ["another model of talos"]),
     "older version": (_saved_by_an_older_version, ["records no robot model"]),
-    "shape": (_short_of_a_joint, ["its q has shape"]),
+    "shape": (_short_of_a_joint, ["array 'q' has shape"]),
     "two motions": (_two_motions, ["it holds 2 motions"]),
     "incomplete meta": (_no_solver_statistics, ["solver's statistics"]),
 }
@@ -128,7 +128,7 @@ def test_a_damaged_part_is_solved_again(tmp_path, small_dataset, robot, capsys, 
         with h5py.File(part, "r+") as f:
             del f[f"motions/{CYCLIC.name}/tau"]
     assert _finished_part(part, CYCLIC, part_attrs(SMALL, robot), robot) is None
-    _assert_warned(capsys, part, "not a readable HDF5" if damage == "not HDF5" else "it is damaged")
+    _assert_warned(capsys, part, "not a readable HDF5" if damage == "not HDF5" else "array 'tau' is missing")
     assert not part.exists()
 
 

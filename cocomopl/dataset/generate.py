@@ -28,7 +28,7 @@ from cocomopl.dataset.plan import default_transitions, successors, training_spec
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
 from cocomopl.gait import foot_separation
-from cocomopl.kinematics import double_support_posture
+from cocomopl.kinematics import check_reach, double_support_posture
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.motion_file import read_motions, writable_folder, write_motions
 from cocomopl.ocp.action_models import knee_bounds
@@ -48,7 +48,6 @@ DT_RANGE_S = (0.005, round(OCPSettings().ds_duration / MIN_PHASE_KNOTS, 6))
 # robot model and solver in memory
 WORKERS_PER_CORE = 4
 SCHEDULER_TIMEOUT_S = 10.0  # to reach a Dask scheduler
-_FINITE = ("t", "q", "v", "tau", "wrenches", "zmp")
 
 
 @dataclass
@@ -175,33 +174,9 @@ def _robot_problem(attrs: dict, motion: Motion, expected: dict, robot: Robot) ->
     return None
 
 
-def _shape_problem(motion: Motion, robot: Robot) -> str | None:
-    """Why a part's arrays do not have the robot's shapes, or None."""
-    if np.ndim(motion.t) != 1 or len(motion.t) < 2:
-        return f"its t has shape {np.shape(motion.t)}, not (n,) with n >= 2"
-    n, nv = len(motion.t), robot.model.nv
-    shapes = {"q": (n, robot.model.nq), "v": (n, nv), "tau": (n, robot.nu), "wrenches": (n, 2, 6),
-              "contact": (n, 2), "zmp": (n, 3)}
-    for name, shape in shapes.items():
-        value = getattr(motion, name)
-        if value.shape != shape or value.dtype.kind not in "biuf":
-            return f"its {name} has shape {value.shape} of {value.dtype}, not {shape} numbers"
-    return None
-
-
-def _content_problem(motion: Motion, robot: Robot) -> str | None:
-    """Why a part's motion is incomplete or not finite, or None."""
-    problem = _shape_problem(motion, robot)
-    if problem:
-        return problem
-    for name in _FINITE:
-        if not np.isfinite(getattr(motion, name)).all():
-            return f"its {name} holds NaN or infinite values"
-    n = len(motion.t)
-    indices = np.r_[motion.impacts, motion.step_starts, [i for _, first, last in motion.phases for i in (first, last)]]
-    if not motion.phases or indices.min() < 0 or indices.max() >= n:
-        return f"its phases, impacts or step starts are not sample indices 0..{n - 1}"
-    solver = motion.meta.get("solver") if isinstance(motion.meta, dict) else None
+def _solver_problem(motion: Motion) -> str | None:
+    """Why a part lacks the solver's statistics (which the dataset's summary reports), or None."""
+    solver = motion.meta.get("solver")
     if not isinstance(solver, dict) or not isinstance(solver.get("solve_time_s"), (int, float)):
         return "it lacks the solver's statistics"
     return None
@@ -211,7 +186,7 @@ def _part_problem(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> t
     """The motion of the part file ``path`` and why it is not the step ``spec`` solved as
     ``expected`` (:func:`part_attrs`) for ``robot`` (None if it is)."""
     try:
-        motions, attrs = read_motions(path)
+        motions, attrs = read_motions(path, robot=robot)  # kinds, shapes, NaN, indices: checked there
     except Error as exc:  # the reader's message names the file, the warning names it already
         return None, str(exc).replace(str(path), "it", 1)
     if len(motions) != 1:
@@ -221,7 +196,7 @@ def _part_problem(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> t
         return motion, f"it holds {motion.name}"
     current = json.loads(json.dumps(expected["settings"]))  # as read back: tuples are lists
     problem = _settings_problem(attrs.get("settings"), current) or _robot_problem(attrs, motion, expected, robot)
-    return motion, problem or _content_problem(motion, robot)
+    return motion, problem or _solver_problem(motion)
 
 
 def _finished_part(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> Motion | None:
@@ -305,12 +280,8 @@ class _Executor:
 def check_stances(robot: Robot, lengths: tuple[float, ...], settings: OCPSettings) -> None:
     """Refuse before any solving, with an :class:`Error`, a step length beyond the robot's
     reach or a knee bend its knees cannot make."""
+    check_reach(robot, lengths)
     for length in lengths:
-        if length > robot.max_step_length:
-            raise Error(
-                f"step length {length * 1000:g} mm is beyond {robot.name}'s reach "
-                f"(at most {robot.max_step_length * 1000:g} mm, from its description)"
-            )
         double_support_posture(robot, (-length, foot_separation(robot)), (0.0, 0.0))
     knee_bounds(robot, settings.min_knee_flexion)
 
