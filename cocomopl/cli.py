@@ -365,7 +365,7 @@ def cmd_export_model(args) -> int:
     from cocomopl.export.mjcf import export_model, mesh_folder
 
     meshes = mesh_folder(Path(args.out))
-    _note_replacing(args.out)
+    _note_replacing(args.out, inputs=[args.robot if args.robot.endswith(".json") else None])
     if meshes.is_dir():  # replaced as a whole by the export (the meshes of an earlier one), not a report folder
         _warn(f"replacing {meshes}")
     payload = export_model(args.robot, args.format, args.out)

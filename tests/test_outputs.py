@@ -91,6 +91,8 @@ def fake_report(folder: Path, **files: str) -> Path:
         (("walk", "--model", "report/m.npz", "--out", "report/"), "--out report would replace the input report/m.npz"),
         (("plot", "report/motions.h5", "--out", "./report"), "--out report would replace the input report/motions.h5"),
         (("plot", "walk.h5", "--out", "linked-report"), "--out linked-report would replace the input walk.h5"),
+        (("export-model", "--robot", "robot.json", "--out", "robot.json"),
+         "--out robot.json would replace the input robot.json"),
     ],
     ids=lambda x: " ".join(x[:1]) if isinstance(x, tuple) else None,
 )
@@ -102,6 +104,7 @@ def test_no_command_replaces_its_input(step_file, tmp_path, monkeypatch, capsys,
     os.symlink("walk.h5", "link.csv")  # export's walk.csv of --out link
     os.link("walk.h5", "hard.h5")
     Path("m.npz").write_bytes(b"a model")
+    Path("robot.json").write_text("{}")
     fake_report(Path("report"), **{"motions.h5": "", "m.npz": ""})
     shutil.copy(step_file, "report/motions.h5")
     os.symlink(tmp_path, "linked-report")  # a folder holding the input, through a link

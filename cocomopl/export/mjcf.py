@@ -19,7 +19,7 @@ from pathlib import Path
 import mujoco
 
 from cocomopl.errors import Error
-from cocomopl.motion_file import atomic_path, writable_folder
+from cocomopl.motion_file import atomic_path, check_output, writable_folder
 from cocomopl.robot import Robot
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant, mesh_files, mjcf
 
@@ -115,6 +115,8 @@ def export_model(robot_source: str, fmt: str, out: str | Path, contact_time_cons
     """
     if fmt not in MODEL_FORMATS:
         raise Error(f"unknown model format {fmt!r}: choose one of {', '.join(MODEL_FORMATS)}")
+    description = robot_source if str(robot_source).endswith(".json") else None
+    check_output(out, [description])  # the description file is an input
     robot = Robot(robot_source)
     path = export_mjcf(robot, out, contact_time_constant)
     model = mujoco.MjModel.from_xml_path(str(path))
