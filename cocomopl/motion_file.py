@@ -63,6 +63,23 @@ def writable_folder(folder: Path, purpose: str) -> Path:
     return folder
 
 
+def writable_place(folder: Path, purpose: str) -> Path:
+    """Make sure ``folder`` exists and can be written, or can be created where it is missing, without creating it
+    (the writer does, when it writes: a refused or failed command leaves no empty folder); else :class:`Error`
+    naming ``purpose``."""
+    existing = Path(folder)
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise Error(f"cannot create {purpose}: {existing} is not a folder")
+    try:  # a real probe: permission bits say nothing on read-only or virtual file systems
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise Error(f"cannot write to {purpose}: {exc.strerror}") from None
+    return folder
+
+
 def check_output(path: str | Path, inputs=(), *, folder: bool = False, given: str | Path | None = None) -> str | None:
     """Refuse, before any work, an output that must not be written, and say what it replaces.
 
@@ -154,7 +171,7 @@ def output_file(path: str | Path, example_name: str, inputs=(), beside: tuple[st
         raise Error(f"--out {path} is a directory; give a file path such as {path / example_name}")
     for target in (path, *(path.with_suffix(suffix) for suffix in beside)):
         check_output(target, inputs, given=path)
-    writable_folder(path.parent, f"the folder of --out {path}")
+    writable_place(path.parent, f"the folder of --out {path}")
     return path
 
 

@@ -28,7 +28,7 @@ from cocomopl.export.grid import CONTROL_DT, GridMotion, resample
 from cocomopl.export.safety import check_safe
 from cocomopl.export.table import csv_text, number_text, read_csv
 from cocomopl.motion import Motion
-from cocomopl.motion_file import atomic_path, writable_folder
+from cocomopl.motion_file import atomic_path, writable_place
 from cocomopl.robot import Robot
 from cocomopl.validation import check_motion
 
@@ -98,7 +98,7 @@ def export_motion(robot: Robot, motion: Motion, fmt: str, prefix: str | Path, dt
         hint = "" if report["finite"] else "; --force exports anyway"
         raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}{hint}")
     prefix = Path(prefix)
-    writable_folder(prefix.parent, f"the folder of {prefix}")
+    writable_place(prefix.parent, f"the folder of {prefix}")
     texts = seqplay_texts(grid) if fmt == "seqplay" else {".csv": csv_text(robot.joint_names, grid)}
     paths = [prefix.with_name(prefix.name + suffix) for suffix in texts]
     with ExitStack() as stack:
