@@ -76,7 +76,8 @@ def writable_place(folder: Path, purpose: str) -> Path:
         with tempfile.TemporaryFile(dir=existing):
             pass
     except OSError as exc:
-        raise Error(f"cannot write to {purpose}: {exc.strerror}") from None
+        verb = "write to" if existing == Path(folder) else "create"
+        raise Error(f"cannot {verb} {purpose}: {exc.strerror}") from None
     return folder
 
 
