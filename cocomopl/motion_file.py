@@ -195,7 +195,7 @@ def report_folder(folder: str | Path, inputs=()):
     try:
         writable_folder(place.parent, f"the folder of --out {folder}")
         remove_stale_temps(place.parent)
-        work = _temp_name(place)
+        work = temp_name(place)
         work.mkdir()
         with _named_as(work, folder, unnamed=False):
             yield work
@@ -220,7 +220,7 @@ def _swap_in(new: Path, place: Path) -> None:
         os.rename(new, place)
         return
     _replaced_report(place)  # again: the user may have put a file there during the run
-    old = _temp_name(place, ".old")
+    old = temp_name(place, ".old")
     os.rename(place, old)
     try:
         os.rename(new, place)
@@ -240,7 +240,7 @@ def atomic_path(path: Path, suffix: str = ".tmp"):
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temps(path.parent)
-    tmp = _temp_name(path, suffix)
+    tmp = temp_name(path, suffix)
     # O_EXCL: never another's file; mode 0666 less the umask, as for any result file (mkstemp's is 0600)
     os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
     try:
@@ -252,7 +252,7 @@ def atomic_path(path: Path, suffix: str = ".tmp"):
         raise
 
 
-def _temp_name(path: Path, suffix: str = "") -> Path:
+def temp_name(path: Path, suffix: str = "") -> Path:
     """A new temporary name beside ``path``, with this process's pid, within the file system's name length (the
     target's name is shortened as needed: a 250-character name gets a temporary name too)."""
     tag = f".{_TEMP_TAG}-{os.getpid()}-{secrets.token_hex(4)}{suffix}"

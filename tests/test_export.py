@@ -3,6 +3,9 @@ robot's MuJoCo model as MJCF."""
 
 import csv
 import dataclasses
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import mujoco
@@ -18,7 +21,7 @@ from cocomopl.export.safety import FOOT_CLEARANCE, check_safe, safety_report
 from cocomopl.export.seqplay import export_motion, written
 from cocomopl.export.table import read_csv
 from cocomopl.kinematics import double_support_posture
-from cocomopl.motion_file import write_motions
+from cocomopl.motion_file import temp_name, write_motions
 from cocomopl.pipeline import generate_walk
 from cocomopl.sim.mujoco_model import build_sim_model
 
@@ -278,6 +281,20 @@ def test_a_failed_mjcf_export_leaves_the_previous_one(robot, tmp_path, monkeypat
         "talos-meshes", "talos-meshes/old.stl", "talos.xml"
     ]
     assert (tmp_path / "talos.xml").read_text() == "old"
+
+
+def test_a_killed_mjcf_exports_leftover_is_removed_by_the_next(robot, tmp_path, monkeypatch):
+    """What a SIGKILL leaves (a temporary meshes folder with a dead writer's pid) goes at the next export there."""
+    finished = subprocess.Popen([sys.executable, "-c", ""])
+    finished.wait()
+    monkeypatch.setattr(os, "getpid", lambda: finished.pid)
+    stranded = temp_name(tmp_path / "talos-meshes")
+    monkeypatch.undo()
+    stranded.mkdir()
+    (stranded / "half.stl").write_text("")
+    monkeypatch.setattr(mjcf_export.shutil, "copyfile", lambda source, target: Path(target).write_text(""))
+    export_mjcf(robot, tmp_path / "talos.xml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["talos-meshes", "talos.xml"]
 
 
 def test_export_model_refuses_an_unknown_format_and_a_folder(tmp_path):

@@ -10,7 +10,6 @@ example-robot-data installed, and can be moved together.
 from __future__ import annotations
 
 import os
-import secrets
 import shutil
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
@@ -19,7 +18,7 @@ from pathlib import Path
 import mujoco
 
 from cocomopl.errors import Error
-from cocomopl.motion_file import atomic_path, check_output, writable_folder
+from cocomopl.motion_file import atomic_path, check_output, remove_stale_temps, temp_name, writable_folder
 from cocomopl.robot import Robot
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant, mesh_files, mjcf
 
@@ -33,8 +32,12 @@ def mesh_folder(path: Path) -> Path:
 
 @contextmanager
 def _atomic_folder(folder: Path) -> Iterator[Path]:
-    """Yield a temporary folder beside ``folder`` that replaces it only if the block succeeds."""
-    tmp = folder.with_name(f".{folder.name}.{secrets.token_hex(4)}.tmp")
+    """Yield a temporary folder beside ``folder`` that replaces it only if the block succeeds.
+
+    Temporary names are the file layer's (:func:`~cocomopl.motion_file.temp_name`, with the
+    writer's pid), so what a killed export leaves is removed by the next run into that place."""
+    remove_stale_temps(folder.parent)
+    tmp = temp_name(folder)
     tmp.mkdir()  # not mkdtemp: its 0700 would make the meshes unreadable to others
     try:
         yield tmp
@@ -42,7 +45,7 @@ def _atomic_folder(folder: Path) -> Iterator[Path]:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     if folder.exists():  # a folder cannot be renamed over a non-empty one: move the old one aside
-        old = tmp.with_suffix(".old")
+        old = temp_name(folder)
         os.replace(folder, old)
         os.replace(tmp, folder)
         shutil.rmtree(old)
