@@ -166,7 +166,7 @@ def test_nan_is_never_exported_even_when_forced(robot, walk, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(3))
 def test_what_is_exported_passes_the_gate_read_back(robot, walk, tmp_path, seed):
     """Property: a written file holds no NaN or Inf and no sample the gate, run again on the
     file itself, would refuse.  Random edits of a safe walk, some of them unsafe."""
