@@ -91,14 +91,14 @@ def export_motion(robot: Robot, motion: Motion, fmt: str, prefix: str | Path, dt
     if fmt not in FORMATS:
         raise Error(f"unknown motion format {fmt!r}: choose one of {', '.join(FORMATS)}")
     check_motion(motion, robot)  # NaN, Inf or a broken motion: refused, forced or not
+    prefix = Path(prefix)
+    writable_place(prefix.parent, f"the folder of {prefix}")  # before the gate's seconds of work
     grid = written(robot, motion, dt)
     reasons, report = check_safe(robot, grid)
     if report["finite"] or (reasons and not force):
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         hint = "" if report["finite"] else "; --force exports anyway"
         raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}{hint}")
-    prefix = Path(prefix)
-    writable_place(prefix.parent, f"the folder of {prefix}")
     texts = seqplay_texts(grid) if fmt == "seqplay" else {".csv": csv_text(robot.joint_names, grid)}
     paths = [prefix.with_name(prefix.name + suffix) for suffix in texts]
     with ExitStack() as stack:

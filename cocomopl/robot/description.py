@@ -141,6 +141,7 @@ class Robot:
     def __init__(self, name_or_path: str = DEFAULT_ROBOT):
         desc = read_description(name_or_path)
         self.description = desc
+        self._visual: pin.GeometryModel | None = None  # visual_model(), loaded on first use
         self.name: str = desc["name"]
         full, q_full_ref = _load_full_model(desc)
         if full.joints[1].shortname() != "JointModelFreeFlyer":
@@ -271,15 +272,17 @@ class Robot:
         return change
 
     def visual_model(self) -> pin.GeometryModel:
-        """The URDF's visual meshes, attached to the joints of the reduced model."""
-        full, q_full_ref, visual = _load_full_model(self.description, visuals=True)
-        if q_full_ref is None:
-            q_full_ref = pin.neutral(full)
-        locked = _locked_joint_ids(full, self.description)
-        if not locked:
-            return visual
-        _, reduced = pin.buildReducedModel(full, visual, locked, q_full_ref)
-        return reduced
+        """The URDF's visual meshes, attached to the joints of the reduced model.
+
+        Loaded on first use (reading the meshes takes about a second) and shared by later
+        calls: do not modify it."""
+        if self._visual is None:
+            full, q_full_ref, visual = _load_full_model(self.description, visuals=True)
+            if q_full_ref is None:
+                q_full_ref = pin.neutral(full)
+            locked = _locked_joint_ids(full, self.description)
+            self._visual = pin.buildReducedModel(full, visual, locked, q_full_ref)[1] if locked else visual
+        return self._visual
 
     # ------------------------------------------------------------------ conveniences
     def leg_chain(self, side: str) -> list[int]:
