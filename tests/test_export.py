@@ -30,8 +30,8 @@ from conftest import assert_one_line_error, run_cli
 
 @pytest.fixture(scope="module")
 def walk():
-    """A short generated walk (the README's), from rest to rest, as a robot would play it."""
-    return generate_walk([0.25, 0.30, 0.35, 0.35]).motion
+    """A short generated walk, a start and a stop step from rest to rest, as a robot would play it."""
+    return generate_walk([0.20, 0.20]).motion
 
 
 @pytest.fixture(scope="module")
