@@ -127,7 +127,7 @@ def test_the_gate_names_a_joint_beyond_its_limit(robot, walk):
     knee = robot.joint_names.index("leg_left_4_joint")
     q = walk.q.copy()
     q[:, 7 + knee] = robot.q_upper[knee] + 0.2
-    reasons, report = check_safe(robot, written(robot, dataclasses.replace(walk, q=q)))
+    reasons, _ = check_safe(robot, written(robot, dataclasses.replace(walk, q=q)))
     assert any("leg_left_4_joint goes 0.200 rad beyond its limits" in r for r in reasons)
 
 

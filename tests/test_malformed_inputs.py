@@ -166,7 +166,7 @@ def dataset_copy(tmp_path_factory) -> Path:
 
 def _last_motion(path: Path) -> str:
     with h5py.File(path, "r") as f:
-        return sorted(f["motions"])[-1]
+        return max(f["motions"])
 
 
 @pytest.mark.parametrize("where", ["signals/values", "q"])
@@ -183,7 +183,7 @@ def test_dataset_check_fails_a_nan_that_is_not_in_the_first_motion(where, datase
     # and the commands that learn from or compare with it refuse it
     code, out, err = run(["train", str(bad), "--out", str(tmp_path / "m.npz"), "--primitives", "2"], capsys)
     assert_refused(code, err, "bad.h5", name)
-    code, out, err = run(["reproduce", "--data", str(bad), "--out", str(tmp_path / "r")], capsys)
+    code, _, err = run(["reproduce", "--data", str(bad), "--out", str(tmp_path / "r")], capsys)
     assert_refused(code, err, "bad.h5")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5"]
 
@@ -193,7 +193,7 @@ def test_a_dataset_whose_motion_is_fine_but_fails_the_check_is_refused_by_reprod
     shutil.copy(dataset_copy, bad)
     with h5py.File(bad, "r+") as f:
         f[f"motions/{_last_motion(bad)}/tau"][5, 3] *= 3.0  # inverse dynamics no longer agrees
-    code, out, err = run(["reproduce", "--data", str(bad), "--out", str(tmp_path / "r")], capsys)
+    code, _, err = run(["reproduce", "--data", str(bad), "--out", str(tmp_path / "r")], capsys)
     assert_refused(code, err, "bad.h5", "dataset check")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5"]
 
@@ -215,7 +215,7 @@ def test_a_dataset_with_wrong_attributes_is_refused(key, value, dataset_copy, tm
         del f.attrs[key]
         if value is not None:
             f.attrs[key] = value
-    code, out, err = run(["dataset", "info", str(bad)], capsys)
+    code, _, err = run(["dataset", "info", str(bad)], capsys)
     assert_refused(code, err, "bad.h5")
 
 

@@ -17,6 +17,7 @@ The reference ZMP is interpolated linearly.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 import pinocchio as pin
@@ -77,7 +78,7 @@ def _interpolate_segments(motion: Motion, grid: np.ndarray, values: np.ndarray) 
     the new support) is not blended into the times before the switch."""
     out = np.empty((len(grid), values.shape[1]))
     edges = [0, *(int(i) + 1 for i in motion.impacts), motion.n]
-    for first, end in zip(edges[:-1], edges[1:]):
+    for first, end in pairwise(edges):
         t = motion.t[first:end]
         last_segment = end == motion.n
         inside = (grid >= t[0] - KNOT_TOLERANCE) & ((grid <= t[-1] + KNOT_TOLERANCE) if last_segment else (grid < t[-1] - KNOT_TOLERANCE))
@@ -100,7 +101,7 @@ def configurations(robot: Robot, waist: np.ndarray, waist_rpy: np.ndarray, joint
 def finite_differences(robot: Robot, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Velocities (central differences, one-sided at the ends) and accelerations (second
     differences, zero at the ends) of configurations ``q`` every ``dt`` s, (n, nv) each."""
-    steps = np.array([pin.difference(robot.model, a, b) / dt for a, b in zip(q[:-1], q[1:])])
+    steps = np.array([pin.difference(robot.model, a, b) / dt for a, b in pairwise(q)])
     v = np.empty((len(q), robot.model.nv))
     v[0], v[-1] = steps[0], steps[-1]
     v[1:-1] = 0.5 * (steps[:-1] + steps[1:])
