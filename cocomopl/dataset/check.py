@@ -14,13 +14,14 @@ from cocomopl.dataset.continuity import step_mismatch
 from cocomopl.dataset.plan import successors
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
+from cocomopl.validation import NO_PUSH_FORCE
 
 
 def non_finite_values(motion: Motion, signals: np.ndarray | None = None) -> int:
     """How many NaN or infinite values a motion (and its training signals) holds; the ZMP
     counts only where a sole pushes, as it is undefined elsewhere."""
     arrays = [motion.t, motion.q, motion.v, motion.tau, motion.wrenches]
-    pushing = np.nan_to_num(motion.wrenches[:, :, 2], nan=1.0).sum(axis=1) > 1e-6
+    pushing = np.nan_to_num(motion.wrenches[:, :, 2], nan=1.0).sum(axis=1) > NO_PUSH_FORCE
     arrays.append(motion.zmp[pushing])
     if signals is not None:
         arrays.append(signals)

@@ -162,14 +162,14 @@ def _settings_problem(saved, current: dict) -> str | None:
     return None
 
 
-def _robot_problem(attrs: dict, motion: Motion, expected: dict, robot: Robot) -> str | None:
-    """Why a part's robot is not ``robot`` (``expected``: :func:`part_attrs`), or None."""
+def _robot_problem(attrs: dict, expected: dict, robot: Robot) -> str | None:
+    """Why a part's file says it is not for ``robot`` (``expected``: :func:`part_attrs`), or None.  The motion's own
+    robot name and joints are checked by the reader (:func:`~cocomopl.motion_file.read_motions`)."""
     if "robot" not in attrs or "robot_model" not in attrs:
         return "it records no robot model (an older cocomopl saved it)"
-    for name in (attrs["robot"], motion.robot):
-        if name != robot.name:
-            return f"it is for the robot {name!r}, not {robot.name!r}"
-    if attrs.get("robot_model") != expected["robot_model"] or list(motion.joint_names) != list(robot.joint_names):
+    if attrs["robot"] != robot.name:
+        return f"it is for the robot {attrs['robot']!r}, not {robot.name!r}"
+    if attrs["robot_model"] != expected["robot_model"]:
         return f"it was solved for another model of {robot.name} (its description, URDF or joints differ)"
     return None
 
@@ -195,7 +195,7 @@ def _part_problem(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> t
     if motion.steps != [spec]:
         return motion, f"it holds {motion.name}"
     current = json.loads(json.dumps(expected["settings"]))  # as read back: tuples are lists
-    problem = _settings_problem(attrs.get("settings"), current) or _robot_problem(attrs, motion, expected, robot)
+    problem = _settings_problem(attrs.get("settings"), current) or _robot_problem(attrs, expected, robot)
     return motion, problem or _solver_problem(motion)
 
 
