@@ -326,19 +326,32 @@ def cmd_reproduce(args) -> int:
     _note_replacing(out, inputs=[args.model, args.data], folder=True)
     payload = reproduce_report(out, args.model, args.data, progress=not args.json,
                                contact_time_constant=args.contact_time_constant_s,
-                               reference_cutoff_hz=args.reference_cutoff_hz, command=args.command_line)
-    lines = ["Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
+                               reference_cutoff_hz=args.reference_cutoff_hz, command=args.command_line,
+                               kajita_variant=args.kajita)
+    start, end = payload["window_s"]
+    lines = [(f"every figure over the walking window {start:g} to {end:g} s; contact time constant "
+              f"{1000 * payload['contact_time_constant_s']:g} ms, reference low-pass {payload['reference_cutoff_hz']:g} Hz"),
+             "Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
-    lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.1f} %")
-    lines.append(f"{'simulated':12s} {'fell':>5s} {'peak F/W':>9s} {'force variation/W':>18s} {'(planned)':>10s} "
-                 f"{'ZMP RMS (m)':>12s} {'touchdown delay (s)':>20s}")
+    lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.2f} %")
+    lines.append(f"{'simulated':9s} {'fell':>5s} {'peak F/W':>8s} {'var/sole':>8s} {'var sum':>8s} {'max dF/dt':>9s} "
+                 f"{'knee mean':>9s} {'CoM mean':>8s} {'(range, m)':>13s} {'stabilizer D, K':>16s}")
     for name, m in payload["metrics"].items():
-        zmp = "-" if m["zmp_rms_error"] is None else f"{m['zmp_rms_error']:.4f}"
-        delay = "-" if m["touchdown_delay_median_s"] is None else f"{m['touchdown_delay_median_s']:+.3f}"
-        lines.append(f"{name:12s} {m['fell']!s:>5s} {m['peak_force_over_weight']:9.2f} "
-                     f"{m['force_variation_over_weight']:18.1f} {payload['planned_force_variation_over_weight'][name]:10.1f} "
-                     f"{zmp:>12s} {delay:>20s}")
-    lines.append(f"MP contact forces smoother than Kajita's: {payload['mp_smoother_than_kajita']}")
+        gains = m["stabilizer_gains"]
+        lines.append(f"{name:9s} {m['fell']!s:>5s} {m['peak_force_over_weight']:8.2f} {m['force_variation_over_weight']:8.2f} "
+                     f"{m['total_force_variation_over_weight']:8.2f} {m['max_force_rate']:9.2e} "
+                     f"{m['knee_angle_mean_rad']:9.2f} {m['com_height_mean_m']:8.3f} "
+                     f"{m['com_height_min_m']:6.3f}-{m['com_height_max_m']:.3f} "
+                     f"{gains['ankle_damping']:>10g}, {gains['dcm_gain']:g}")
+    for other in ("OC", "Kajita"):
+        lower = [k for k, c in payload[f"mp_vs_{other.lower()}"].items() if c["lower"] == "MP"]
+        higher = [k for k, c in payload[f"mp_vs_{other.lower()}"].items() if c["lower"] != "MP"]
+        lines.append(f"MP lower than {other} in: {', '.join(lower) or 'none'}; higher in: {', '.join(higher) or 'none'}")
+    kajita = payload["kajita"]
+    lines.append(f"Kajita ({kajita['variant']}): CoM at {kajita['com_height_m']:.3f} m (pelvis {100 * kajita['pelvis_drop']:.1f} cm "
+                 f"low{', searched' if kajita['pelvis_drop_searched'] else ''}), multibody ZMP "
+                 f"{100 * kajita['zmp_reference_rms_m']:.2f} cm RMS from its reference "
+                 f"({100 * kajita['first_stage_zmp_reference_rms_m']:.2f} cm after preview control alone)")
     solved = payload["m_opt_solved_now"]
     lines.append(f"M_opt: {payload['m_opt_steps']} step OCPs, {payload['m_opt_steps'] - len(solved)} from the dataset and "
                  f"{len(solved)} solved now{' (' + ', '.join(solved) + ')' if solved else ''} in "
@@ -510,6 +523,9 @@ def _simulation_parsers(sub) -> None:
     reproduce.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
     reproduce.add_argument("--data", metavar="DATASET.h5",
                            help="OC dataset for M_opt's steps and gait states (default: the bundled one)")
+    reproduce.add_argument("--kajita", choices=("two-stage", "legacy"), default="two-stage",
+                           help="the Kajita baseline: as jrl-walkgen runs it (two-stage, default) or the earlier "
+                                "single-stage one with a fixed 4 cm crouch (legacy)")
     _simulation_options(reproduce)
     _json_option(reproduce)
     reproduce.set_defaults(func=cmd_reproduce)

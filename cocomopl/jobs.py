@@ -226,7 +226,7 @@ def simulate_file(
                                      reference_cutoff_hz=reference_cutoff_hz)
     write_motions(out, {"measured": rollout.measured},
                   {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
-    return {"output": str(out), "stabilizer": stabilizer,
+    return {"output": str(out), "stabilizer": stabilizer, "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
 

@@ -112,10 +112,13 @@ def simulate_walk(
     progress: bool = False,
     contact_time_constant: float | None = None,
     reference_cutoff_hz: float | None = None,
+    gains=None,
 ):
     """Simulate ``motion`` in MuJoCo; with ``video``, also render it there (MP4).
     ``contact_time_constant`` (s) sets the sole-floor softness (default: the model's),
-    ``reference_cutoff_hz`` the reference's low-pass (default: the rollout's; 0: none).
+    ``reference_cutoff_hz`` the reference's low-pass (default: the rollout's; 0: none),
+    ``gains`` the stabilizer's (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default:
+    those tuned for the motion's generator).
 
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
     """
@@ -126,7 +129,7 @@ def simulate_walk(
 
     sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
     cutoff = REFERENCE_CUTOFF_HZ if reference_cutoff_hz is None else reference_cutoff_hz
-    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff)
+    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout, summary(robot, rollout.measured, motion)
@@ -180,6 +183,7 @@ def walk_report(
             "lengths_mm": [1000 * x for x in lengths],
             "steps": [s.spec.name for s in walk.steps],
             "stabilizer": stabilizer,
+            "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
             **metrics,
@@ -216,11 +220,14 @@ def reproduce_report(
     contact_time_constant: float | None = None,
     reference_cutoff_hz: float | None = None,
     command: str | None = None,
+    kajita_variant: str = "two-stage",
 ) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_opt from chained OCPs
     (the steps of the dataset at ``dataset_path``, and the transitions it lacks solved here)
-    and the Kajita baseline on M_gen's footsteps and timing, all three simulated with the
-    stabilizer; the analogue of Table I (mean torques) and of Figs. 6, 8 and 9.
+    and the Kajita baseline (``kajita_variant``, :func:`kajita_for`) on M_gen's footsteps and
+    timing, all three simulated with the stabilizer tuned for their generator and measured
+    over the same walking window (:mod:`cocomopl.analysis.comparison`); the analogue of
+    Table I (mean torques) and of Figs. 6, 8 and 9.
 
     ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` with
     every metric, and the comparison PNGs, written as a unit as :func:`walk_report`'s; the
@@ -233,8 +240,8 @@ def reproduce_report(
     dataset_path = bundled_dataset_path(dataset_path)
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
-        robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress,
-                                                               contact_time_constant, reference_cutoff_hz)
+        robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress, contact_time_constant,
+                                                               reference_cutoff_hz, kajita_variant)
         payload["provenance"] = provenance
         motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
                    for name, m in by_name.items()}
@@ -248,17 +255,58 @@ def reproduce_report(
     return payload
 
 
-def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_time_constant: float | None,
-                      reference_cutoff_hz: float | None) -> tuple[Robot, dict, dict, dict]:
-    """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "OC",
-    "Kajita") and the summary without provenance, files and wall time."""
+def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
+    """The Kajita baseline on a generated walk's footsteps and phase timing: the
+    ``variant`` of :data:`~cocomopl.baselines.kajita.VARIANTS`, the two-stage one with the
+    generated walk's mean swing height."""
     import dataclasses
 
     import numpy as np
 
-    from cocomopl.analysis.metrics import force_variation, mean_torque, total_force_variation
-    from cocomopl.baselines.kajita import kajita_walk
-    from cocomopl.dynamics import GRAVITY
+    from cocomopl.analysis.metrics import swing_heights
+    from cocomopl.baselines.kajita import VARIANTS, kajita_walk
+
+    if variant not in VARIANTS:
+        raise Error(f"unknown Kajita variant {variant!r}: choose from {', '.join(VARIANTS)}")
+    settings = VARIANTS[variant]
+    if variant == "two-stage":
+        settings = dataclasses.replace(settings, swing_height=float(np.mean(swing_heights(walk.robot, walk.motion))))
+    durations = [np.diff(s.phase_edges) for s in walk.steps]
+    return kajita_walk(walk.robot, [s.spec for s in walk.steps], durations, dt=PLAN_DT, settings=settings)
+
+
+def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool = False,
+                      contact_time_constant: float | None = None, reference_cutoff_hz: float | None = None,
+                      gains: dict | None = None, window: tuple[float, float] | None = None,
+                      ) -> tuple[dict, dict, tuple[float, float]]:
+    """Simulate each of the ``planned`` walks with the stabilizer and measure them by the
+    comparison protocol (:mod:`cocomopl.analysis.comparison`).
+
+    ``gains`` maps a walk's name to its :class:`~cocomopl.sim.stabilizer.StabilizerGains`;
+    by default each walk gets those tuned for its generator.  ``window`` (s) defaults to
+    the walks' common window.
+    Returns the simulated motions (on the plans' clock), the figures per walk and the window.
+    """
+    import dataclasses
+
+    from cocomopl.analysis.comparison import common_window, window_figures
+
+    window = window or common_window(planned)
+    simulated = {}
+    for name, motion in planned.items():
+        rollout, _ = simulate_walk(robot, motion, stabilizer=True, progress=progress,
+                                   contact_time_constant=contact_time_constant,
+                                   reference_cutoff_hz=reference_cutoff_hz, gains=(gains or {}).get(name))
+        # the simulator's clock starts at the plan's first sample
+        simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
+    return simulated, window_figures(robot, planned, simulated, window), window
+
+
+def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_time_constant: float | None,
+                      reference_cutoff_hz: float | None, kajita_variant: str = "two-stage") -> tuple[Robot, dict, dict, dict]:
+    """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "OC",
+    "Kajita") and the summary without provenance, files and wall time."""
+    from cocomopl.analysis.comparison import per_measure
     from cocomopl.motion_file import load_robot, read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
 
@@ -271,40 +319,26 @@ def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_ti
     solve_started = time.perf_counter()
     m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
-    kajita = kajita_walk(robot, [s.spec for s in walk.steps], [np.diff(s.phase_edges) for s in walk.steps], dt=PLAN_DT)
-    # the preview controller needs a standing prelude: align its walking with the others'
-    kajita = dataclasses.replace(kajita, t=kajita.t - kajita.meta.get("prelude", 0.0))
+    kajita = kajita_for(walk, kajita_variant)
     planned = {"MP": walk.motion, "OC": m_opt, "Kajita": kajita}
-    simulated, metrics = {}, {}
-    for name, motion in planned.items():
-        rollout, metrics[name] = simulate_walk(
-            robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant,
-            reference_cutoff_hz=reference_cutoff_hz,
-        )
-        simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
-    table = {
-        "OC planned (joint torques)": mean_torque(m_opt),
-        "OC simulated": metrics["OC"]["mean_torque"],
-        "MP planned (inverse dynamics)": mean_torque(walk.motion),
-        "MP simulated": metrics["MP"]["mean_torque"],
-        "Kajita planned (inverse dynamics)": mean_torque(kajita),
-        "Kajita simulated": metrics["Kajita"]["mean_torque"],
-    }
+    simulated, figures, window = simulate_compared(robot, planned, progress, contact_time_constant, reference_cutoff_hz)
+    table = {}
+    for name, label in (("OC", "OC planned (joint torques)"), ("MP", "MP planned (inverse dynamics)"),
+                        ("Kajita", "Kajita planned (inverse dynamics)")):
+        table[label] = figures[name]["planned"]["mean_torque"]
+        table[f"{name} simulated"] = figures[name]["mean_torque"]
     payload = {
+        "window_s": list(window),
         "table1_mean_torque": table,
         "mp_vs_oc_simulated_mean_torque_difference": table["MP simulated"] / table["OC simulated"] - 1,
-        # total variation of the contact forces: not diluted by the standing before and after
-        "mp_smoother_than_kajita": metrics["MP"]["force_variation_over_weight"] < metrics["Kajita"]["force_variation_over_weight"],
-        # the same measures on the plans: how much of the simulated roughness each plan asks for
-        "planned_force_variation_over_weight": {
-            name: float(force_variation(m).max() / (robot.mass * GRAVITY)) for name, m in planned.items()
-        },
-        "planned_total_force_variation_over_weight": {
-            name: total_force_variation(m) / (robot.mass * GRAVITY) for name, m in planned.items()
-        },
-        "metrics": metrics,
+        "mp_vs_oc": per_measure(figures, "MP", "OC"),
+        "mp_vs_kajita": per_measure(figures, "MP", "Kajita"),
+        "metrics": figures,
         "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
         "reference_cutoff_hz": simulated["MP"].meta["reference_cutoff_hz"],
+        "kajita": {key: kajita.meta[key] for key in (
+            "pelvis_drop", "pelvis_drop_searched", "com_height_m", "swing_height", "zmp_smoothing", "second_stage",
+            "first_stage_zmp_reference_rms_m", "zmp_reference_rms_m", "walking_span_s")} | {"variant": kajita_variant},
         "m_opt_steps": len(m_opt.steps),
         "m_opt_solved_now": m_opt.meta["solved_now"],
         "m_opt_solve_s": solve_s,

@@ -5,10 +5,15 @@ import pinocchio as pin
 import pytest
 
 from cocomopl.analysis.feasibility import check_motion
+from cocomopl.analysis.metrics import posture_statistics, swing_heights
 from cocomopl.baselines.kajita import (
+    DROP_SEARCH_RANGE,
+    DROP_SEARCH_RESOLUTION,
+    LEGACY,
     KajitaSettings,
     default_durations,
     kajita_walk,
+    smoothed,
     support_phases,
     swing_position,
     zmp_reference,
@@ -120,6 +125,9 @@ def test_walk_keeps_the_given_timing_between_standing_prelude_and_postlude(walk)
     durations[-1] += KajitaSettings().postlude
     spans = [walk.t[last] - walk.t[first] for _, first, last in walk.phases]
     assert np.allclose(spans, durations)
+    # the clock starts when the phases do: the prelude runs at negative times
+    assert walk.t[0] == pytest.approx(-KajitaSettings().prelude)
+    assert walk.meta["walking_span_s"] == pytest.approx([0.0, np.concatenate(default_durations(SPECS)).sum()])
     assert [kind for kind, _, _ in walk.phases] == ["ds", "ss"] * 3 + ["ds"]
     assert np.abs(walk.v[0]).max() < 1e-2  # it starts from rest
     assert np.abs(walk.v[-1]).max() < 1e-2  # and ends at rest
@@ -157,7 +165,7 @@ def test_swing_sole_clears_the_ground(robot, walk):
 
 def test_com_follows_the_preview_and_zmp_stays_in_the_support(robot, walk):
     assert walk.meta["producer"] == "kajita"
-    assert walk.meta["com_error_m"] < 1e-3
+    assert walk.meta["zmp_reference_rms_m"] < 2e-3  # the whole body realises the reference, not just the cart-table
     assert walk.meta["sole_error_m"] < 1e-3
     report = check_motion(robot, walk, friction=1.0)
     assert report["inverse_dynamics_residual"] < 1e-6
@@ -167,3 +175,47 @@ def test_com_follows_the_preview_and_zmp_stays_in_the_support(robot, walk):
     # the touchdown time appears twice, pre- and post-impact, with the same configuration
     assert np.all(walk.t[walk.impacts] == walk.t[walk.impacts + 1])
     assert np.allclose(walk.q[walk.impacts], walk.q[walk.impacts + 1])
+
+
+def test_the_smoothing_window_is_jrl_walkgens():
+    dt, window = 0.005, 0.05
+    reference = np.zeros((200, 2))
+    reference[100:] = [0.1, -0.2]
+    out = smoothed(reference, dt, window)
+    assert np.allclose(out[:100], 0.0) and np.allclose(out[-1], reference[-1])  # constants pass unchanged
+    assert np.all(np.diff(out[:, 0]) >= -1e-12)  # a monotonic step stays monotonic
+    # causal with symmetric weights: the step is half done half a window (less half a sample) after it
+    half = 100 + round(window / dt / 2)
+    assert 0.5 * (out[half - 1, 0] + out[half, 0]) == pytest.approx(0.05)
+    assert smoothed(reference, dt, 0.0) is reference
+
+
+def test_the_second_stage_brings_the_multibody_zmp_onto_the_reference(robot, walk):
+    drop = walk.meta["pelvis_drop"]
+    single = kajita_walk(robot, SPECS, dt=0.025, settings=KajitaSettings(pelvis_drop=drop, second_stage=False))
+    assert single.meta["zmp_reference_rms_m"] == pytest.approx(single.meta["first_stage_zmp_reference_rms_m"])
+    assert walk.meta["first_stage_zmp_reference_rms_m"] == pytest.approx(single.meta["zmp_reference_rms_m"])
+    assert walk.meta["zmp_reference_rms_m"] < 0.2 * single.meta["zmp_reference_rms_m"]
+    # the correction is horizontal: the CoM height stays the cart-table's
+    assert np.ptp(walk.q[:, 2]) < 1e-3
+
+
+def test_the_searched_com_height_is_the_highest_the_legs_reach(robot, walk):
+    assert walk.meta["pelvis_drop_searched"]
+    drop = walk.meta["pelvis_drop"]
+    assert DROP_SEARCH_RANGE[0] + DROP_SEARCH_RESOLUTION < drop < DROP_SEARCH_RANGE[1]
+    assert walk.meta["sole_error_m"] < 1e-3  # reached, at that height
+    with pytest.raises(Error, match="out of the legs' reach"):
+        kajita_walk(robot, SPECS, dt=0.025, settings=KajitaSettings(pelvis_drop=drop - 2 * DROP_SEARCH_RESOLUTION))
+    posture = posture_statistics(robot, walk)
+    assert posture["com_height_min_m"] <= walk.meta["com_height_m"] <= posture["com_height_max_m"]
+    # the legacy variant's fixed 4 cm crouch walks lower, on more bent knees
+    legacy = kajita_walk(robot, SPECS, dt=0.025, settings=LEGACY)
+    assert legacy.meta["com_height_m"] < walk.meta["com_height_m"] - 0.05
+    assert posture_statistics(robot, legacy)["knee_angle_mean_rad"] > posture["knee_angle_mean_rad"]
+
+
+def test_swing_heights_measure_the_planned_apex(robot, walk):
+    apexes = swing_heights(robot, walk)
+    assert len(apexes) == 3  # the start's swing and the stop's two
+    assert np.allclose(apexes, KajitaSettings().swing_height, atol=2e-3)

@@ -118,15 +118,22 @@ def test_summary_means_torques_over_the_reference_span_only(robot):
     assert metrics.summary(robot, measured)["mean_torque"] > 3.0 / np.sqrt(robot.nu)
 
 
-def test_truncating_an_oc_step_keeps_its_touchdown_whole(oc_step):
+def test_a_window_keeps_a_touchdown_whole_or_not_at_all():
+    oc_step = read_motion(DATASET, "stop_250_L")  # two touchdowns inside
     impact = int(oc_step.impacts[0])
-    touchdown = oc_step.t[impact] - oc_step.t[0]
-    before = metrics.truncated(oc_step, touchdown - 1e-3)
+    t0, touchdown = oc_step.t[0], oc_step.t[impact]
+    before = metrics.windowed(oc_step, t0, touchdown - 1e-3)
     assert before.n == impact and len(before.impacts) == 0
-    at = metrics.truncated(oc_step, touchdown)
+    at = metrics.windowed(oc_step, t0, touchdown)
     assert at.n == impact + 2 and list(at.impacts) == [impact]  # both duplicates
     assert all(last < at.n for _, _, last in at.phases)
-    assert metrics.truncated(oc_step, oc_step.duration) is oc_step
+    after = metrics.windowed(oc_step, touchdown, oc_step.t[-1])
+    assert after.t[0] == touchdown and after.impacts[0] == 0  # starts at the pre-impact sample
+    later = metrics.windowed(oc_step, touchdown + 1e-3, oc_step.t[-1])
+    assert later.t[0] > touchdown and list(later.impacts) == list(oc_step.impacts[1:] - impact - 2)  # from the first sample after both duplicates
+    assert all(0 <= first <= last < later.n for _, first, last in later.phases)
+    assert list(later.step_starts) == [0] and later.steps == oc_step.steps
+    assert metrics.windowed(oc_step, t0, oc_step.t[-1]) is oc_step
 
 
 # ------------------------------------------------------------------ contact forces

@@ -12,7 +12,7 @@ from cocomopl.motion import Motion
 from cocomopl.motion_file import read_motion, write_motions
 from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.rollout import _placed_on_floor, simulate
-from cocomopl.sim.stabilizer import Stabilizer, _leg_maps
+from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, _leg_maps
 
 from conftest import synthetic
 
@@ -150,7 +150,7 @@ def _push_excursion(robot, sim, reference, dcm_gain: float, push_n: float, ankle
     """Largest forward CoM excursion (m) of a robot standing on ``reference`` pushed at the pelvis."""
     data = mujoco.MjData(sim.mj)
     _placed_on_floor(sim, data, reference.q[0])
-    control = Stabilizer(sim, reference, dcm_gain=dcm_gain, ankle_damping=ankle_damping)
+    control = Stabilizer(sim, reference, StabilizerGains(ankle_damping=ankle_damping, dcm_gain=dcm_gain))
     start, excursion = data.subtree_com[0, 0], 0.0
     for i in range(1000):  # 1 s, pushed from 0.1 s to 0.2 s
         data.ctrl[:] = reference.q[0, 7:] + control.correction(data, i * sim.mj.opt.timestep)

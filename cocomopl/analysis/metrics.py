@@ -39,20 +39,23 @@ SLIP_FORCE_RATIO = 0.05
 TOUCHDOWN_WINDOW_S = 0.2
 
 
-def truncated(motion: Motion, seconds: float) -> Motion:
-    """The first ``seconds`` of ``motion``: its samples with ``t - t[0] <= seconds`` (all
-    of them if it is shorter), impacts, phases and steps cut to match."""
-    n = max(int(np.searchsorted(motion.t - motion.t[0], seconds + 1e-9, side="right")), 1)
-    if n == motion.n:
+def windowed(motion: Motion, start: float, end: float) -> Motion:
+    """The samples of ``motion`` with ``start <= t <= end`` (s, on its own clock), its
+    impacts, phases and steps cut to match (a step that began before ``start`` keeps its
+    label, starting at the window's first sample).  At least one sample is kept."""
+    first = min(int(np.searchsorted(motion.t, start - 1e-9, side="left")), motion.n - 1)
+    last = max(int(np.searchsorted(motion.t, end + 1e-9, side="right")), first + 1)
+    if first == 0 and last == motion.n:
         return motion
-    starts = motion.step_starts < n
+    ends = np.append(motion.step_starts[1:], motion.n)
+    kept = np.flatnonzero((motion.step_starts < last) & (ends > first))
     return dataclasses.replace(
         motion,
-        **{key: getattr(motion, key)[:n] for key in ("t", "q", "v", "tau", "wrenches", "contact", "zmp")},
-        impacts=motion.impacts[motion.impacts < n],
-        phases=[(kind, first, min(last, n - 1)) for kind, first, last in motion.phases if first < n],
-        steps=[step for step, kept in zip(motion.steps, starts) if kept],
-        step_starts=motion.step_starts[starts],
+        **{key: getattr(motion, key)[first:last] for key in ("t", "q", "v", "tau", "wrenches", "contact", "zmp")},
+        impacts=motion.impacts[(motion.impacts >= first) & (motion.impacts < last - 1)] - first,
+        phases=[(kind, max(a, first) - first, min(b, last - 1) - first) for kind, a, b in motion.phases if b >= first and a < last],
+        steps=[motion.steps[k] for k in kept],
+        step_starts=np.maximum(motion.step_starts[kept] - first, 0),
     )
 
 
@@ -250,6 +253,33 @@ def knee_torques(robot: Robot, motion: Motion) -> dict[str, np.ndarray]:
     return {side: motion.tau[:, i].copy() for side, i in knee_joints(robot).items()}
 
 
+def swing_heights(robot: Robot, motion: Motion) -> np.ndarray:
+    """Peak height (m) of the sole frame above the ground over each swing, in time order of
+    the lift-offs: a swing is a run of samples where a sole is out of contact."""
+    soles = sole_placements(robot, motion.q)[..., 2]
+    out = []
+    for j in range(2):
+        edges = np.diff(np.concatenate([[0], (~motion.contact[:, j]).astype(int), [0]]))
+        out += [(first, float(soles[first:end, j].max())) for first, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1))]
+    return np.array([height for _, height in sorted(out)])
+
+
+def posture_statistics(robot: Robot, motion: Motion) -> dict:
+    """Knee angles (rad, both knees) and CoM height (m) of ``motion``: mean, min and max over
+    its samples.  How crouched a walk is sets its knee torques."""
+    data = robot.model.createData()
+    com = np.array([pin.centerOfMass(robot.model, data, q)[2] for q in motion.q])
+    knees = motion.q[:, 7 + np.array(list(knee_joints(robot).values()))]
+    return {
+        "knee_angle_mean_rad": float(knees.mean()),
+        "knee_angle_min_rad": float(knees.min()),
+        "knee_angle_max_rad": float(knees.max()),
+        "com_height_mean_m": float(com.mean()),
+        "com_height_min_m": float(com.min()),
+        "com_height_max_m": float(com.max()),
+    }
+
+
 def fell(robot: Robot, motion: Motion, height_ratio: float = FALL_HEIGHT_RATIO, tilt: float = FALL_TILT) -> bool:
     """Whether the robot fell: the simulator said so (``meta["fell"]``), or at some sample
     the pelvis is below ``height_ratio`` times its first height, or its z axis is tilted
@@ -358,7 +388,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     Force rates are of the forces smoothed over ``FORCE_FILTER_S`` (:func:`force_rates`);
     ``max_force_rate_raw`` is without smoothing.  Per-foot values are the larger of the two
     feet.  Entries that need a reference are None without one.  With a reference, the
-    torque means are over its duration only (:func:`truncated`): a rollout goes on standing
+    torque means are over its duration only (:func:`windowed`): a rollout goes on standing
     after the motion ends, and those standing torques would dilute a mean per second;
     everything else, a fall or slip while standing included, is over the whole motion.
 
@@ -374,7 +404,7 @@ def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> 
     absolute value of :func:`touchdown_delays`, sign kept), ``reference_mean_torque`` and
     ``completed`` (measured duration / reference duration)
     """
-    walked = measured if reference is None else truncated(measured, reference.duration)
+    walked = measured if reference is None else windowed(measured, measured.t[0], measured.t[0] + reference.duration)
     out = {
         "fell": fell(robot, measured),
         "duration_s": measured.duration,

@@ -1,12 +1,25 @@
-"""The classic baseline: a walk from ZMP preview control of the cart-table model (Kajita 2003).
+"""The classic baseline: a walk from ZMP preview control of the cart-table model (Kajita 2003),
+set up as jrl-walkgen, the authors' reference implementation, runs it.
 
 The footsteps and phase timing are given (the same as a generated walk's); the ZMP
 reference stays at the stance sole's centre in single support and moves linearly to the
-next stance sole over double support, starting and ending between the feet.  Preview
-control turns it into a CoM trajectory at constant height; swing soles follow minimum-jerk
-paths with a bell-shaped lift; inverse kinematics, warm-started sample to sample, gives the
-whole body.  Torques and contact wrenches then come from Pinocchio inverse dynamics, so the
-result is a :class:`Motion` like any other and can be checked against its own claims.
+next stance sole over double support, starting and ending between the feet, and is
+smoothed by jrl-walkgen's 50 ms sin² window.  Two stages, as jrl-walkgen's default
+``ZMPPreviewControlWithMultiBodyZMP``:
+
+1. preview control turns the reference into a CoM trajectory at a constant height; swing
+   soles follow minimum-jerk paths with a bell-shaped lift; inverse kinematics, warm-started
+   sample to sample, gives the whole body, the pelvis upright and the arms held;
+2. the multibody ZMP of that motion (inverse dynamics) is brought back onto the reference by
+   moving the pelvis horizontally: the dynamics filter the generated walks get
+   (:mod:`cocomopl.synthesis.dynamics_filter`), Kajita et al.'s second stage solved over
+   the whole walk instead of by a second preview controller.
+
+The constant CoM height is the highest the legs can hold through the whole walk, found by
+bisection on the pelvis height (:func:`highest_pelvis_drop`).  Torques and contact wrenches
+come from Pinocchio inverse dynamics, so the result is a :class:`Motion` like any other and
+can be checked against its own claims.  ``LEGACY`` keeps the earlier single-stage variant
+(4 cm crouch, no smoothing, 8 cm swing) for comparison.
 """
 
 from __future__ import annotations
@@ -24,22 +37,25 @@ from cocomopl.gait import footsteps, ground_position, phase_plan
 from cocomopl.kinematics import leg_joints, place_legs
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
+from cocomopl.synthesis.dynamics_filter import dynamics_filter, multibody_zmp, rms_zmp_error
 
-STANDING_ITERATIONS = (
-    10  # pelvis shifts to bring the CoM of the first posture above its target
-)
-REACH_TOLERANCE = (
-    1e-3  # m: a sole farther than this from its target is out of the legs' reach
-)
+STANDING_ITERATIONS = 10  # pelvis shifts to bring the CoM of the first posture above its target
+REACH_TOLERANCE = 1e-3  # m: a sole farther than this from its target is out of the legs' reach
+# m: the pelvis drops the height search brackets (below the reference posture; negative is
+# above it, where TALOS's knees straighten) and the resolution it stops at
+DROP_SEARCH_RANGE = (-0.06, 0.12)
+DROP_SEARCH_RESOLUTION = 1e-3
 
 
 @dataclass(frozen=True)
 class KajitaSettings:
-    """Settings of the baseline, SI units.
+    """Settings of the baseline, SI units.  The defaults are jrl-walkgen's set-up; ``LEGACY``
+    is the earlier single-stage variant.
 
     Attributes
     ----------
-    swing_height : peak height of the swing sole above the ground, m
+    swing_height : peak height of the swing sole above the ground, m; :func:`swing_apex`
+        measures a walk's, to match it
     preview_time : preview horizon, s
     weight_error, weight_input : preview-control weights ``Qe`` (ZMP error) and ``R`` (jerk)
     control_dt : sampling period of the preview controller, s (independent of the motion's)
@@ -52,9 +68,12 @@ class KajitaSettings:
         between the feet: once the ZMP is there the CoM only closes in at the cart-table's
         own rate (time constant ``sqrt(z_c/g)``, about 0.3 s), so without it the walk ends
         with the CoM still moving sideways at about 0.1 m/s
-    pelvis_drop : how much lower than in the reference posture the pelvis walks, m: bent
-        knees let the legs reach long steps (TALOS at the reference height cannot land a
-        0.39 m step)
+    pelvis_drop : how much lower than in the reference posture the pelvis walks, m; None:
+        the least the legs allow, so the highest feasible CoM (:func:`highest_pelvis_drop`)
+    zmp_smoothing : length of jrl-walkgen's sin² window over the ZMP reference, s (``FilterZMPRef``,
+        50 ms "from Kajita's San Matlab files"); 0: the piecewise-linear reference as it is
+    second_stage : correct the whole body's multibody ZMP onto the reference (the dynamics
+        filter); False leaves the cart-table's error in the plan
     """
 
     swing_height: float = 0.08
@@ -65,7 +84,15 @@ class KajitaSettings:
     ik_iterations: int = 2
     prelude: float = 1.6
     postlude: float = 1.0
-    pelvis_drop: float = 0.04
+    pelvis_drop: float | None = None
+    zmp_smoothing: float = 0.05
+    second_stage: bool = True
+
+
+# The single-stage baseline of earlier releases: a fixed 4 cm crouch, the raw reference, no
+# multibody correction.  Kept to compare with; docs/results.md has both.
+LEGACY = KajitaSettings(pelvis_drop=0.04, zmp_smoothing=0.0, second_stage=False)
+VARIANTS = {"two-stage": KajitaSettings(), "legacy": LEGACY}
 
 
 @dataclass(frozen=True)
@@ -192,6 +219,22 @@ def zmp_reference(
     return np.stack([np.interp(t, edges, knots[:, i]) for i in range(2)], axis=1)
 
 
+def smoothed(reference: np.ndarray, dt: float, window: float) -> np.ndarray:
+    """``reference`` (n, 2), sampled every ``dt`` s, through jrl-walkgen's ZMP filter: a causal
+    moving average with ``sin²`` weights over ``window`` seconds (0: unchanged).
+
+    Causal, as there: each sample averages the ``window`` before it, so the smoothed
+    reference lags by half the window (25 ms for 50 ms); the preview sees it all the same.
+    """
+    n = int(np.floor(window / dt + 1e-9))
+    if n < 1:
+        return reference
+    weights = np.sin(np.pi * np.arange(n + 1) / n) ** 2
+    weights /= weights.sum()
+    padded = np.vstack([np.repeat(reference[:1], n, axis=0), reference])
+    return np.stack([np.convolve(padded[:, i], weights, mode="valid") for i in range(2)], axis=1)
+
+
 def swing_position(
     start: np.ndarray, end: np.ndarray, s: float, height: float
 ) -> np.ndarray:
@@ -251,7 +294,8 @@ def _preview_com(
     settings: KajitaSettings,
     settle: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Preview CoM (n, 2), starting at rest above the reference, and reference ZMP (n, 2) at times ``t``.
+    """Preview CoM (n, 2), starting at rest above the reference, and the smoothed reference
+    ZMP (n, 2) it follows, at times ``t``.
 
     The reference holds between the feet over the prelude and the last ``settle`` seconds.
     """
@@ -263,12 +307,12 @@ def _preview_com(
         settings.weight_input,
     )
     grid = np.arange(0.0, t[-1] + 1.5 * settings.control_dt, settings.control_dt)
-    com, com_vel, _, _ = controller.track(
-        zmp_reference(robot, phases, grid, settings.prelude, settle)
+    reference = smoothed(
+        zmp_reference(robot, phases, grid, settings.prelude, settle), settings.control_dt, settings.zmp_smoothing
     )
-    return CubicHermiteSpline(grid, com, com_vel, axis=0)(t), zmp_reference(
-        robot, phases, t, settings.prelude, settle
-    )
+    com, com_vel, _, _ = controller.track(reference)
+    at_t = np.stack([np.interp(t, grid, reference[:, i]) for i in range(2)], axis=1)
+    return CubicHermiteSpline(grid, com, com_vel, axis=0)(t), at_t
 
 
 def _phase_ranges(
@@ -321,6 +365,81 @@ def _whole_body(
     return out
 
 
+def _out_of_reach(robot: Robot, t: np.ndarray, q: np.ndarray, soles: np.ndarray) -> str | None:
+    """Why the configurations ``q`` (n, nq) do not realise the walk, or None if they do: a
+    sole more than ``REACH_TOLERANCE`` from its target ``soles`` (n, 2, 3), or a joint faster
+    than its limit (a knee that snaps straight to reach a footstep)."""
+    reached = sole_placements(robot, q)
+    sole_error = np.abs(reached - soles).max(axis=(1, 2))
+    if sole_error.max() > REACH_TOLERANCE:
+        k = int(np.argmax(sole_error))
+        return f"sole {1000 * sole_error[k]:.1f} mm off at t = {t[k]:.2f} s"
+    distinct = np.flatnonzero(np.diff(t) > 0)
+    speed = np.abs(np.diff(q[:, 7:], axis=0)[distinct] / np.diff(t)[distinct, None])
+    ratio = speed / robot.model.velocityLimit[6:]
+    if ratio.max() > 1.0:
+        k, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        return f"{robot.joint_names[j]} at {ratio.max():.2f} x its velocity limit at t = {t[distinct[k]]:.2f} s"
+    return None
+
+
+def _first_stage(
+    robot: Robot,
+    phases: list[SupportPhase],
+    t: np.ndarray,
+    soles: np.ndarray,
+    drop: float,
+    settings: KajitaSettings,
+    settle: float,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Stage 1 with the pelvis ``drop`` m below the reference posture: the configurations
+    (n, nq), the smoothed reference ZMP (n, 2) and the cart-table's CoM height (m).
+
+    The robot starts in the reference posture, lowered and upright, its CoM above the
+    reference's start; the CoM height of that posture is the cart-table's.
+    """
+    model, data = robot.model, robot.model.createData()
+    com_start = zmp_reference(robot, phases, t[:1])[0]
+    crouched = robot.q_ref.copy()
+    crouched[2] -= drop
+    standing = _whole_body(robot, crouched, t[:1], soles[:1], com_start[None], STANDING_ITERATIONS)[0]
+    com_height = float(pin.centerOfMass(model, data, standing)[2])
+    com, zmp_ref = _preview_com(robot, phases, t, com_height, settings, settle)
+    return _whole_body(robot, standing, t, soles, com, settings.ik_iterations), zmp_ref, com_height
+
+
+def highest_pelvis_drop(
+    robot: Robot,
+    phases: list[SupportPhase],
+    t: np.ndarray,
+    soles: np.ndarray,
+    settings: KajitaSettings,
+    settle: float,
+) -> float:
+    """The least pelvis drop (m), so the highest constant CoM, at which stage 1 realises the
+    walk (:func:`_out_of_reach`): bisection over ``DROP_SEARCH_RANGE`` down to
+    ``DROP_SEARCH_RESOLUTION``, about eight first stages.
+
+    A higher pelvis straightens the knees, so the longest step is the first the legs fail to
+    reach: feasibility is monotonic in the drop.  The lowest pelvis of the range is returned
+    untried if nothing above it works; the walk then fails its own reach check.
+    """
+    high, low = DROP_SEARCH_RANGE
+    while low - high > DROP_SEARCH_RESOLUTION:
+        middle = 0.5 * (low + high)
+        q, _, _ = _first_stage(robot, phases, t, soles, middle, settings, settle)
+        if _out_of_reach(robot, t, q, soles) is None:
+            low = middle
+        else:
+            high = middle
+    return low
+
+
+def _ground(soles: np.ndarray, contact: np.ndarray) -> list[list[pin.SE3 | None]]:
+    """Per sample and sole, the planned flat placement while in contact, None in the air."""
+    return [[pin.SE3(np.eye(3), soles[k, j]) if contact[k, j] else None for j in range(2)] for k in range(len(soles))]
+
+
 def kajita_motion(
     robot: Robot,
     phases: list[SupportPhase],
@@ -332,15 +451,17 @@ def kajita_motion(
 
     ``specs`` only label the steps (``Motion.steps``); footsteps and timing are the phases',
     the first (a double support) lengthened by ``settings.prelude`` and, if the walk ends at
-    rest (in double support), the last by ``settings.postlude``.
-    The robot starts in the reference posture with the pelvis ``settings.pelvis_drop``
-    lower, upright, its CoM above the ZMP reference's start; the CoM height of that posture
-    is the cart-table's.
+    rest (in double support), the last by ``settings.postlude``.  Time 0 is when the phases
+    begin, so the prelude runs at negative times; ``meta["walking_span_s"]`` is the span of
+    the phases themselves, without prelude and postlude.  ``meta`` holds the
+    settings, the pelvis drop and CoM height used, and the RMS distance of the plan's
+    multibody ZMP from the smoothed reference (``zmp_reference_rms_m``; after stage 1 alone
+    ``first_stage_zmp_reference_rms_m``).
 
     Raises
     ------
     Error
-        If the legs cannot reach the footsteps at that pelvis height.
+        If the legs cannot reach the footsteps at the pelvis height.
     """
     model, data = robot.model, robot.model.createData()
     settle = settings.postlude if phases[-1].kind == "ds" else 0.0
@@ -349,39 +470,39 @@ def kajita_motion(
     phases[-1] = replace(phases[-1], duration=phases[-1].duration + settle)
     t, index = _sample_times(phases, dt)
     soles = _sole_targets(phases, t, index, settings.swing_height)
-    com_start = zmp_reference(robot, phases, t[:1])[0]
-    crouched = robot.q_ref.copy()
-    crouched[2] -= settings.pelvis_drop
-    standing = _whole_body(
-        robot, crouched, t[:1], soles[:1], com_start[None], STANDING_ITERATIONS
-    )[0]
-    com_height = float(pin.centerOfMass(model, data, standing)[2])
-    com, zmp_ref = _preview_com(robot, phases, t, com_height, settings, settle)
-    q = _whole_body(robot, standing, t, soles, com, settings.ik_iterations)
-    reached = sole_placements(robot, q)
-    sole_error = np.abs(reached - soles).max(axis=(1, 2))
-    if sole_error.max() > REACH_TOLERANCE:
-        k = int(np.argmax(sole_error))
-        raise Error(
-            f"footsteps out of the legs' reach with the pelvis at {standing[2]:.3f} m (sole {1000 * sole_error[k]:.1f} mm "
-            f"off at t = {t[k]:.2f} s): lower it (KajitaSettings.pelvis_drop) or shorten the steps"
-        )
     contact = np.array([[phases[p].swing != side for side in SIDES] for p in index])
     impacts = np.flatnonzero(np.diff(t) == 0)
+    drop = settings.pelvis_drop
+    if drop is None:
+        drop = highest_pelvis_drop(robot, phases, t, soles, settings, settle)
+    q, zmp_ref, com_height = _first_stage(robot, phases, t, soles, drop, settings, settle)
+    zmp_ref = np.column_stack([zmp_ref, np.zeros(len(t))])
+    first_error = rms_zmp_error(multibody_zmp(robot, t, q, contact, impacts), zmp_ref, impacts)
+    if settings.second_stage:
+        q, _, _ = dynamics_filter(robot, t, q, contact, impacts, _ground(soles, contact), zmp_ref)
+    why = _out_of_reach(robot, t, q, soles)
+    if why is not None:
+        remedy = "shorten the steps" if settings.pelvis_drop is None else "lower it (KajitaSettings.pelvis_drop) or shorten the steps"
+        raise Error(f"footsteps out of the legs' reach with the pelvis {100 * drop:.1f} cm low ({why}): {remedy}")
     coms = np.array([pin.centerOfMass(model, data, qk) for qk in q])
     step_of = np.array([phases[p].step for p in index])
     starts = [np.flatnonzero(step_of == k)[0] for k in range(len(specs))]
-    motion = kinematic_motion(robot, t, q, contact, impacts, _phase_ranges(phases, index), specs, starts, meta={})
+    # the clock starts when the walking does: the standing prelude runs at negative times
+    motion = kinematic_motion(robot, t - settings.prelude, q, contact, impacts, _phase_ranges(phases, index), specs, starts,
+                              meta={})
     motion.meta = {
         "producer": "kajita",
         **asdict(settings),
+        "pelvis_drop": drop,
+        "pelvis_drop_searched": settings.pelvis_drop is None,
+        "walking_span_s": [0.0, float(t[-1] - settings.prelude - settle)],
         "com_height_m": com_height,
         "com_height_range_m": float(np.ptp(coms[:, 2])),
-        "pelvis_height_m": float(standing[2]),
-        "sole_error_m": float(sole_error.max()),
-        "com_error_m": float(np.abs(coms[:, :2] - com).max()),
-        # the cart-table neglects angular momentum and the legs' swing: the price of the baseline
-        "zmp_reference_rms_m": float(np.sqrt(np.nanmean(np.sum((motion.zmp[:, :2] - zmp_ref) ** 2, axis=1)))),
+        "pelvis_height_m": float(q[0, 2]),
+        "sole_error_m": float(np.abs(sole_placements(robot, q) - soles).max()),
+        # the cart-table neglects angular momentum and the legs' swing: what stage 2 corrects
+        "first_stage_zmp_reference_rms_m": first_error,
+        "zmp_reference_rms_m": rms_zmp_error(motion.zmp, zmp_ref, impacts),
     }
     return motion
 

@@ -28,7 +28,7 @@ from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
-from cocomopl.sim.stabilizer import Stabilizer
+from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, gains_for
 
 RECORD_DT = 0.005  # s between recorded samples
 SETTLE_S = 0.5  # s standing before the motion starts
@@ -106,6 +106,7 @@ def simulate(
     record_dt: float = RECORD_DT,
     progress: bool = False,
     reference_cutoff_hz: float = REFERENCE_CUTOFF_HZ,
+    gains: StabilizerGains | None = None,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -120,6 +121,8 @@ def simulate(
     record_dt : seconds between recorded samples
     reference_cutoff_hz : cut-off (Hz) of the zero-phase low-pass of the reference joints;
         0 plays the linear interpolation of the knots as it is (:func:`check_reference_cutoff`)
+    gains : the stabilizer's gains; default those tuned for the generator that made
+        ``motion`` (:func:`~cocomopl.sim.stabilizer.gains_for`)
 
     Returns
     -------
@@ -131,7 +134,8 @@ def simulate(
     reference = _reference_joints(motion, model.opt.timestep, reference_cutoff_hz)
     t0 = float(motion.t[0])
     _placed_on_floor(sim, data, motion.q[0])
-    control = Stabilizer(sim, motion) if stabilizer else None
+    gains = (gains or gains_for(motion)) if stabilizer else None
+    control = Stabilizer(sim, motion, gains) if stabilizer else None
     every = max(int(round(record_dt / model.opt.timestep)), 1)
     n_settle = int(round(settle / model.opt.timestep))
     n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
@@ -155,11 +159,11 @@ def simulate(
             fell, fall_time = True, max(time - t0, 0.0)
             break
         mujoco.mj_step(model, data)
-    measured = _measured_motion(sim, motion, rows, stabilizer, reference_cutoff_hz, fell, fall_time)
+    measured = _measured_motion(sim, motion, rows, gains, reference_cutoff_hz, fell, fall_time)
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
-def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: bool, reference_cutoff_hz: float,
+def _measured_motion(sim: SimModel, reference: Motion, rows: dict, gains: StabilizerGains | None, reference_cutoff_hz: float,
                      fell: bool, fall_time) -> Motion:
     t = np.array(rows["t"])
     q = np.array(rows["q"])
@@ -189,7 +193,8 @@ def _measured_motion(sim: SimModel, reference: Motion, rows: dict, stabilizer: b
         meta={
             "producer": "mujoco",
             "reference_producer": reference.meta.get("producer", "unknown"),
-            "stabilizer": stabilizer,
+            "stabilizer": gains is not None,
+            "stabilizer_gains": None if gains is None else gains.as_dict(),
             "reference_cutoff_hz": reference_cutoff_hz,
             "fell": fell,
             "fall_time_s": fall_time,

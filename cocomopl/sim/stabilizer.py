@@ -33,6 +33,8 @@ corrections decay with a faster leak, so that it lands flat.  ``cocomopl simulat
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
+
 import mujoco
 import numpy as np
 import pinocchio as pin
@@ -43,8 +45,8 @@ from cocomopl.robot import Robot
 
 ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
-# N m s/rad: D, how slowly an ankle yields to a torque error.  3000, not 300, since the OCPs
-# land softly: a stiffer ankle keeps the sole flat through the weight transfer
+# N m s/rad: D, how slowly an ankle yields to a torque error.  3000, not 300: a stiffer ankle
+# keeps the sole flat through the weight transfer (benchmarks/stabilizer_tuning.py)
 ANKLE_DAMPING = 3000.0
 ANKLE_LEAK = 0.5  # s: T, how fast the ankle returns to the reference
 FORCE_DAMPING = 1e4  # N s/m: D, how slowly the soles yield to a force-difference error
@@ -57,6 +59,39 @@ SWING_LEAK = 0.1  # s: T of a swinging foot's ankle corrections
 DCM_GAIN = 2.0
 MAX_ZMP_SHIFT = 0.08  # m: the DCM feedback asks at most this of the ZMP, about a sole's half length
 COM_VELOCITY_FILTER = 0.01  # s: time constant of the measured CoM velocity's low-pass filter
+
+
+@dataclass(frozen=True)
+class StabilizerGains:
+    """The stabilizer's two main gains.
+
+    Attributes
+    ----------
+    ankle_damping : D of the ankle damping control, N m s/rad
+    dcm_gain : K of the DCM feedback (dimensionless)
+    """
+
+    ankle_damping: float = ANKLE_DAMPING
+    dcm_gain: float = DCM_GAIN
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+# Per walk generator (the motion's ``meta["producer"]``), the gains tuned on three sequences
+# that no reported figure uses (benchmarks/stabilizer_tuning.py, docs/results.md#stabilizer-tuning).
+# All three keep D = 3000, K = 2: on a grid of D 300-10000 and K 1-3 no setting lowered a
+# generator's mean peak force by more than 0.01 x weight, and D = 300 raised Kajita's to 1.2.
+TUNED_GAINS = {
+    "primitives": StabilizerGains(),
+    "ocp": StabilizerGains(),
+    "kajita": StabilizerGains(),
+}
+
+
+def gains_for(reference: Motion) -> StabilizerGains:
+    """The tuned gains for the generator that made ``reference``; the defaults for any other."""
+    return TUNED_GAINS.get(reference.meta.get("producer"), StabilizerGains())
 
 
 def _leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -88,10 +123,10 @@ def _leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class Stabilizer:
     """Corrections to the commanded joint angles of one rollout (it keeps the ankle state)."""
 
-    def __init__(self, sim, reference: Motion, dcm_gain: float = DCM_GAIN, ankle_damping: float = ANKLE_DAMPING):
+    def __init__(self, sim, reference: Motion, gains: StabilizerGains = StabilizerGains()):
         self.sim = sim
-        self.dcm_gain = dcm_gain
-        self.ankle_damping = ankle_damping
+        self.dcm_gain = gains.dcm_gain
+        self.ankle_damping = gains.ankle_damping
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
