@@ -179,6 +179,40 @@ def test_conditioning_makes_the_sequence_continuous(model):
     assert free_gap > 100 * chained_gap
 
 
+def test_a_conditioned_start_is_as_uncertain_as_its_observation(model):
+    from cocomopl.primitives.estimator import CONDITION_RATIO
+
+    specs = sequence_specs(list(M_GEN))
+    start = model.predict(specs[0]).values[-1]
+    free, chained = model.predict(specs[1]), model.predict(specs[1], start=start)
+    (w, prior_cov, m, m_var), = free._std_terms
+    (_, cov, _, _), = chained._std_terms
+    h = m[:, 0]
+    conditioned = ~model.state_["unconditioned"]
+    predicted = np.einsum("s,isu,u->i", h, prior_cov, h)  # the start's variance from the weights, before
+    after = np.einsum("s,isu,u->i", h, cov, h)
+    # a rank-one update observed with a variance CONDITION_RATIO x the prediction's leaves exactly
+    # that observation's variance (times 1 / (1 + ratio)): the update's covariance is kept whole
+    expected = predicted * CONDITION_RATIO / (1.0 + CONDITION_RATIO)
+    np.testing.assert_allclose(after[conditioned], expected[conditioned], rtol=0.1)
+    np.testing.assert_allclose(after[~conditioned], predicted[~conditioned])  # the ZMP is not conditioned
+    assert np.allclose(cov, np.swapaxes(cov, 1, 2)) and np.all(np.linalg.eigvalsh(cov) > -1e-15)
+
+
+def test_the_predicted_std_is_the_spread_of_sampled_signals(model):
+    specs = sequence_specs(list(M_GEN))
+    step = model.predict(specs[1], start=model.predict(specs[0]).values[-1])
+    (w, cov, m, m_var), = step._std_terms
+    rng = np.random.default_rng(0)
+    n = 5000
+    # weights per signal from their (coupled) posterior, primitives independent per time
+    L = np.linalg.cholesky(cov + 1e-30 * np.eye(cov.shape[-1]))
+    weights = w[None] + np.einsum("isu,nu->nis", L, rng.standard_normal((n, cov.shape[-1])))
+    primitives = m[None] + np.sqrt(m_var)[None] * rng.standard_normal((n, *m.shape))
+    samples = np.einsum("nis,nst->nti", weights[:, :, :], primitives)
+    np.testing.assert_allclose(samples.std(axis=0), step.std, rtol=0.05, atol=1e-9)
+
+
 def test_sequence_specs_alternate_feet_and_choose_kinds():
     specs = sequence_specs(list(M_GEN))
     assert [s.kind for s in specs] == ["start", "cyclic"] + ["transition"] * 6 + ["stop"]

@@ -89,7 +89,7 @@ class PredictedStep:
         self.spec = spec
         self.tau = tau
         self.values = values
-        self._std_terms = std_terms  # per part: (weights, weight_var, primitives, primitive_var)
+        self._std_terms = std_terms  # per part: (weights, weight_cov, primitives, primitive_var)
         self.boundaries = boundaries
         self.durations = durations
         self.duration_std = duration_std
@@ -135,9 +135,13 @@ class PredictedStep:
         )
 
 
-def _signal_std(weights, weight_var, primitives, primitive_var) -> np.ndarray:
-    second_moment = primitives**2 + primitive_var
-    return np.sqrt(weight_var @ second_moment + weights**2 @ primitive_var).T
+def _signal_std(weights, weight_cov, primitives, primitive_var) -> np.ndarray:
+    """Standard deviation (T, I) of ``x_i(t) = w_i @ MP(t)`` for weights ``w_i ~ N(weights_i,
+    weight_cov_i)`` (I, S), (I, S, S) and independent primitives ``MP_s(t) ~ N(primitives, primitive_var)``
+    (S, T) each: ``m(t)' P_i m(t) + sum_s (w_is^2 + P_i,ss) v_s(t)``."""
+    weight_var = np.diagonal(weight_cov, axis1=1, axis2=2)
+    variance = np.einsum("st,isu,ut->it", primitives, weight_cov, primitives) + (weights**2 + weight_var) @ primitive_var
+    return np.sqrt(np.maximum(variance, 0.0)).T
 
 
 class MovementPrimitives:
@@ -361,8 +365,9 @@ class MovementPrimitives:
         var = c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0)
         shape = self.state_["alpha_w"].shape
         w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
+        cov = var[:, :, None] * np.eye(shape[1])  # the weights of different primitives are independent
         if start is not None:
-            w, var = _condition(w, var, np.asarray(start, dtype=float), c["h"], c["conditioned"])
+            w, cov = _condition(w, cov, np.asarray(start, dtype=float), c["h"], c["conditioned"])
         k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2)  # (P, n)
         durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=1))
         log_var = c["dur_alpha"][:, 0] - (k[:, None, :] @ c["dur_K_inv"] @ k[:, :, None])[:, 0, 0]
@@ -372,7 +377,7 @@ class MovementPrimitives:
             spec,
             self.state_["tau"],
             (w @ m).T,
-            [(w, var, m, self.state_["m_var"])],
+            [(w, cov, m, self.state_["m_var"])],
             c["boundaries"],
             durations,
             durations * np.sqrt(np.maximum(log_var, 0.0)),
@@ -407,14 +412,15 @@ def _show_iteration(bar: tqdm, bound: float) -> None:
     bar.update()
 
 
-def _condition(w, var, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:
-    """Gaussian conditioning of each signal's weights on its value ``h @ w`` at the step's start.
-
-    Weights are independent a posteriori, so per signal this is a rank-one Kalman update.
+def _condition(w, cov, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:
+    """Gaussian conditioning of each signal's weights, ``w`` (I, S) with covariance ``cov``
+    (I, S, S), on its value ``h @ w`` at the step's start, observed with a variance of
+    ``CONDITION_RATIO`` times its predicted one: per signal a rank-one Kalman update, whose
+    covariance couples the primitives' weights (so the start's variance is the observation's).
     """
-    Ph = var * h
+    Ph = cov @ h  # (I, S)
     gain = Ph * (conditioned / ((Ph @ h) * (1.0 + CONDITION_RATIO)))[:, None]
-    return w + gain * (start - w @ h)[:, None], var - gain * Ph
+    return w + gain * (start - w @ h)[:, None], cov - gain[:, :, None] * Ph[:, None, :]
 
 
 class _SlotLayout:
