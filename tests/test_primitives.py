@@ -185,7 +185,7 @@ def test_a_conditioned_start_is_as_uncertain_as_its_observation(model):
     specs = sequence_specs(list(M_GEN))
     start = model.predict(specs[0]).values[-1]
     free, chained = model.predict(specs[1]), model.predict(specs[1], start=start)
-    (w, prior_cov, m, m_var), = free._std_terms
+    (_, prior_cov, m, _), = free._std_terms
     (_, cov, _, _), = chained._std_terms
     h = m[:, 0]
     conditioned = ~model.state_["unconditioned"]
