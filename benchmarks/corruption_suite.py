@@ -138,16 +138,21 @@ def deleted(key: str) -> Corrupt:
     return in_motion(edit)
 
 
+def _attr_edit(key: str, value) -> Callable:
+    """An edit of an HDF5 object's attribute ``key``: set to ``value``, or removed if None."""
+
+    def edit(node) -> None:
+        if value is None:
+            del node.attrs[key]
+        else:
+            node.attrs[key] = value
+
+    return edit
+
+
 def motion_attr(key: str, value) -> Corrupt:
     """The motion's attribute ``key`` set to ``value``, or removed if ``value`` is None."""
-
-    def edit(group: h5py.Group) -> None:
-        if value is None:
-            del group.attrs[key]
-        else:
-            group.attrs[key] = value
-
-    return in_motion(edit)
+    return in_motion(_attr_edit(key, value))
 
 
 def motion_steps(transform: Callable[[list], list]) -> Corrupt:
@@ -161,14 +166,7 @@ def motion_steps(transform: Callable[[list], list]) -> Corrupt:
 
 def file_attr(key: str, value) -> Corrupt:
     """The file's attribute ``key`` set to ``value``, or removed if ``value`` is None."""
-
-    def edit(f: h5py.File) -> None:
-        if value is None:
-            del f.attrs[key]
-        else:
-            f.attrs[key] = value
-
-    return in_file(edit)
+    return in_file(_attr_edit(key, value))
 
 
 def both(*corruptions: Corrupt) -> Corrupt:

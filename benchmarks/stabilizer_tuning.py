@@ -42,7 +42,7 @@ FIGURES = ("fell", "peak_force_over_weight", "force_variation_over_weight", "tot
            "max_force_rate", "mean_torque")
 
 
-def plans(name: str, lengths_mm: tuple, opt_lengths_mm: tuple | None = None) -> dict:
+def plans(lengths_mm: tuple, opt_lengths_mm: tuple | None = None) -> dict:
     """The MP, OC and Kajita plans of one sequence."""
     from cocomopl.data import dataset_path
     from cocomopl.gait import sequence_specs
@@ -134,9 +134,9 @@ def main() -> int:
     from cocomopl.gait import M_GEN, M_OPT
 
     started = time.perf_counter()
-    sequences = {name: plans(name, lengths) for name, lengths in tqdm(TUNING.items(), desc="plans", file=sys.stderr)}
+    sequences = {name: plans(lengths) for name, lengths in tqdm(TUNING.items(), desc="plans", file=sys.stderr)}
     if args.reported:
-        sequences["reported"] = plans("reported", tuple(1000 * x for x in M_GEN), tuple(1000 * x for x in M_OPT))
+        sequences["reported"] = plans(tuple(1000 * x for x in M_GEN), tuple(1000 * x for x in M_OPT))
     jobs = [(name, generator, walks, damping, gain) for name, walks in sequences.items() for generator in walks
             for damping, gain in itertools.product(ANKLE_DAMPING, DCM_GAIN)]
     with mp.get_context("spawn").Pool(args.workers) as pool:

@@ -114,15 +114,32 @@ def simulate_walk(
     reference_cutoff_hz: float | None = None,
     gains=None,
 ):
-    """Simulate ``motion`` in MuJoCo; with ``video``, also render it there (MP4).
-    ``contact_time_constant`` (s) sets the sole-floor softness (default: the model's),
-    ``reference_cutoff_hz`` the reference's low-pass (default: the rollout's; 0: none),
-    ``gains`` the stabilizer's (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default:
-    those tuned for the motion's generator).
+    """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
 
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
     """
     from cocomopl.analysis.metrics import summary
+
+    rollout = rollout_of(robot, motion, stabilizer, video, progress, contact_time_constant, reference_cutoff_hz, gains)
+    return rollout, summary(robot, rollout.measured, motion)
+
+
+def rollout_of(
+    robot: Robot,
+    motion: Motion,
+    stabilizer: bool = True,
+    video: Path | None = None,
+    progress: bool = False,
+    contact_time_constant: float | None = None,
+    reference_cutoff_hz: float | None = None,
+    gains=None,
+):
+    """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo; with ``video``, also
+    rendered there (MP4).  ``contact_time_constant`` (s) sets the sole-floor softness
+    (default: the model's), ``reference_cutoff_hz`` the reference's low-pass (default: the
+    rollout's; 0: none), ``gains`` the stabilizer's
+    (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default: those tuned for the
+    motion's generator)."""
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
@@ -132,7 +149,7 @@ def simulate_walk(
     rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
-    return rollout, summary(robot, rollout.measured, motion)
+    return rollout
 
 
 def walk_report(
@@ -294,9 +311,9 @@ def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool =
     window = window or common_window(planned)
     simulated = {}
     for name, motion in planned.items():
-        rollout, _ = simulate_walk(robot, motion, stabilizer=True, progress=progress,
-                                   contact_time_constant=contact_time_constant,
-                                   reference_cutoff_hz=reference_cutoff_hz, gains=(gains or {}).get(name))
+        # measured below, over the window only
+        rollout = rollout_of(robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant,
+                             reference_cutoff_hz=reference_cutoff_hz, gains=(gains or {}).get(name))
         # the simulator's clock starts at the plan's first sample
         simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
     return simulated, window_figures(robot, planned, simulated, window), window

@@ -20,7 +20,7 @@ import numpy as np
 from cocomopl.data import BUNDLED_MODEL
 from cocomopl.gait import M_GEN
 from cocomopl.motion import Motion
-from cocomopl.pipeline import generate_walk, simulate_walk
+from cocomopl.pipeline import generate_walk, rollout_of
 from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.video import render_frames
 
@@ -50,12 +50,12 @@ def main() -> None:
     args = parser.parse_args()
 
     walk = generate_walk(list(M_GEN), BUNDLED_MODEL)
-    rollout, _ = simulate_walk(walk.robot, walk.motion)
+    rollout = rollout_of(walk.robot, walk.motion)
     if rollout.fell:
         raise SystemExit(f"the default walk fell at {rollout.fall_time:.2f} s: no picture made")
     times = middle_stride_times(walk.motion, FRAMES)
     indices = np.clip(np.searchsorted(rollout.measured.t, times), 0, len(rollout.measured.t) - 1)
-    # simulate_walk's model has no meshes; this one has, for rendering
+    # rollout_of's model has no meshes; this one has, for rendering
     sim = build_sim_model(walk.robot, visuals=True)
     frames = list(render_frames(sim, rollout.qpos[indices], FRAME_SIZE))
     args.out.parent.mkdir(parents=True, exist_ok=True)

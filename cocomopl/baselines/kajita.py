@@ -415,24 +415,26 @@ def highest_pelvis_drop(
     soles: np.ndarray,
     settings: KajitaSettings,
     settle: float,
-) -> float:
+) -> tuple[float, tuple | None]:
     """The least pelvis drop (m), so the highest constant CoM, at which stage 1 realises the
     walk (:func:`_out_of_reach`): bisection over ``DROP_SEARCH_RANGE`` down to
-    ``DROP_SEARCH_RESOLUTION``, about eight first stages.
+    ``DROP_SEARCH_RESOLUTION``, about eight first stages.  Returns the drop and
+    :func:`_first_stage`'s result there (None if untried).
 
     A higher pelvis straightens the knees, so the longest step is the first the legs fail to
     reach: feasibility is monotonic in the drop.  The lowest pelvis of the range is returned
     untried if nothing above it works; the walk then fails its own reach check.
     """
     high, low = DROP_SEARCH_RANGE
+    found = None
     while low - high > DROP_SEARCH_RESOLUTION:
         middle = 0.5 * (low + high)
-        q, _, _ = _first_stage(robot, phases, t, soles, middle, settings, settle)
-        if _out_of_reach(robot, t, q, soles) is None:
-            low = middle
+        stage = _first_stage(robot, phases, t, soles, middle, settings, settle)
+        if _out_of_reach(robot, t, stage[0], soles) is None:
+            low, found = middle, stage
         else:
             high = middle
-    return low
+    return low, found
 
 
 def _ground(soles: np.ndarray, contact: np.ndarray) -> list[list[pin.SE3 | None]]:
@@ -472,10 +474,10 @@ def kajita_motion(
     soles = _sole_targets(phases, t, index, settings.swing_height)
     contact = np.array([[phases[p].swing != side for side in SIDES] for p in index])
     impacts = np.flatnonzero(np.diff(t) == 0)
-    drop = settings.pelvis_drop
+    drop, stage = settings.pelvis_drop, None
     if drop is None:
-        drop = highest_pelvis_drop(robot, phases, t, soles, settings, settle)
-    q, zmp_ref, com_height = _first_stage(robot, phases, t, soles, drop, settings, settle)
+        drop, stage = highest_pelvis_drop(robot, phases, t, soles, settings, settle)
+    q, zmp_ref, com_height = stage or _first_stage(robot, phases, t, soles, drop, settings, settle)
     zmp_ref = np.column_stack([zmp_ref, np.zeros(len(t))])
     first_error = rms_zmp_error(multibody_zmp(robot, t, q, contact, impacts), zmp_ref, impacts)
     if settings.second_stage:

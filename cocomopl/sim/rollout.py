@@ -135,7 +135,7 @@ def simulate(
     t0 = float(motion.t[0])
     _placed_on_floor(sim, data, motion.q[0])
     gains = (gains or gains_for(motion)) if stabilizer else None
-    control = Stabilizer(sim, motion, gains) if stabilizer else None
+    control = None if gains is None else Stabilizer(sim, motion, gains)
     every = max(int(round(record_dt / model.opt.timestep)), 1)
     n_settle = int(round(settle / model.opt.timestep))
     n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
