@@ -10,7 +10,7 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 from scipy.optimize import minimize
 
-from cocomopl.primitives.bound import BoundData, free_energy, mp_prior, posterior, weight_prior
+from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, posterior, weight_prior
 
 # (lower, upper) for the log-parameters; the rest are unbounded.  They keep the kernels
 # numerically sane: time length scales between a grid step and 10 steps, weight-kernel
@@ -73,7 +73,7 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     best = None
     for gamma in GAMMA_GRID:
         B = np.exp(-gamma * d2) * (mask[:, :, None] * mask[:, None, :])
-        B = B + np.eye(d2.shape[-1]) * (1.0 - mask[:, :, None]) + 1e-4 * np.eye(d2.shape[-1]) * mask[:, :, None]
+        B = B + np.eye(d2.shape[-1]) * (1.0 - mask[:, :, None]) + JITTER * np.eye(d2.shape[-1]) * mask[:, :, None]
         L = np.linalg.cholesky(B)  # (G, N, N), shared by all (i, s)
         z = np.linalg.solve(L, (deviation * mask)[..., None])[..., 0]  # (I, S, G, N)
         alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)
