@@ -13,7 +13,7 @@ from cocomopl.errors import Error
 from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.model_file import model_metadata
-from cocomopl.primitives.selection import select_model
+from cocomopl.primitives.selection import EXPLAINED_ENOUGH, choose, select_model
 from cocomopl.primitives.training import load_training_steps
 
 
@@ -28,15 +28,35 @@ def selected(cyclic):
     return select_model(cyclic, n_primitives=(2, 3), kernels=("rbf",), max_iterations=5, workers=1)
 
 
-def test_every_candidate_is_fitted_and_the_largest_bound_wins(selected):
+def test_every_candidate_is_fitted_and_the_rule_chooses(selected):
     best, rows = selected
     assert [(r["kernel"], r["n_primitives"]) for r in rows] == [("rbf", 2), ("rbf", 3)]
-    winner = max(rows, key=lambda r: r["bound"])
+    winner = rows[choose(rows)]
     assert (best.kernel, best.n_primitives, best.bound_) == (winner["kernel"], winner["n_primitives"], winner["bound"])
     for r in rows:
         assert 1 <= r["iterations"] <= 5
         assert set(r["explained_variance"]) == {"joints", "zmp", "pelvis"}
         assert all(0 < v <= 1 for v in r["explained_variance"].values())
+
+
+def _row(kernel: str, S: int, bound: float, explained: float) -> dict:
+    return {"kernel": kernel, "n_primitives": S, "bound": bound,
+            "explained_variance": {"joints": 1.0, "zmp": explained, "pelvis": 1.0}}
+
+
+def test_a_bound_that_keeps_rising_leaves_the_choice_to_the_explained_variance():
+    low, high = EXPLAINED_ENOUGH - 1e-4, EXPLAINED_ENOUGH + 1e-4
+    rows = [_row("rbf", 7, 1.0, low), _row("rbf", 11, 2.0, high), _row("rbf", 15, 3.0, high),
+            _row("matern32", 7, 1.1, low), _row("matern32", 11, 2.1, high), _row("matern32", 15, 3.1, high)]
+    assert rows[choose(rows)]["kernel"] == "matern32" and rows[choose(rows)]["n_primitives"] == 11
+    # no candidate explains enough: the largest S
+    short = [_row("rbf", 7, 1.0, low), _row("rbf", 11, 2.0, low)]
+    assert choose(short) == 1
+
+
+def test_a_bound_that_turns_over_chooses_by_itself():
+    rows = [_row("rbf", 7, 1.0, 1.0), _row("rbf", 11, 3.0, 1.0), _row("rbf", 15, 2.0, 1.0)]
+    assert choose(rows) == 1
 
 
 def test_the_best_candidate_keeps_the_selection_settings_and_predicts(selected, cyclic):

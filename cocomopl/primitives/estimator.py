@@ -217,7 +217,7 @@ class MovementPrimitives:
     # ------------------------------------------------------------------ fit
     def fit(self, steps: TrainingSteps) -> MovementPrimitives:
         """Learn primitives, weight GPs and duration GPs from training steps."""
-        from cocomopl.primitives import optimise  # JAX is needed to fit only
+        from cocomopl.primitives import em  # JAX is needed to fit only
 
         self.validate(steps)
         started = time.perf_counter()
@@ -228,7 +228,7 @@ class MovementPrimitives:
         layout = _SlotLayout(parts, types)
         description = f"fitting {self.n_primitives} {self.kernel} primitives"
         with tqdm(total=self.max_iterations, desc=description, unit="iteration", disable=not self.verbose) as bar:
-            result = optimise.maximise_bound(
+            result = em.maximise_bound_em(
                 layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations,
                 pca_signal_weights(X, steps.signal_names),
                 on_iteration=functools.partial(_show_iteration, bar) if self.verbose else None,
