@@ -3,7 +3,8 @@
 Both start from the same PCA start on the bundled dataset (100-point grid); EM runs until a
 round gains less than ``em.TOLERANCE`` nats or ``--rounds`` rounds, the joint optimiser
 ``--iterations`` iterations.  Reports the bound, the wall time, the explained variance per
-signal group and the learned time-kernel hyperparameters.
+signal group, the learned time-kernel hyperparameters, the weight kernels' median width and
+nugget, and EM's last round's gain (what stopping left on the table).
 
     python benchmarks/learner_em.py [--kernel rbf] [--primitives 7,11,15,23,31] [--rounds 40]
         [--joint] [--iterations 150] [--json]
@@ -53,12 +54,17 @@ def main() -> int:
                 "iterations": result["iterations"], "wall_time_s": time.perf_counter() - started,
                 "explained_variance": explained_variance(X, layout.from_slots(result["reconstruction"]), steps.signal_names),
                 "alpha_t": result["arrays"]["alpha_t"].tolist(), "ell_t": result["arrays"]["ell_t"].tolist(),
+                "last_round_gain": float(np.diff(result["bounds"])[-1]) if len(result.get("bounds", [])) > 1 else None,
+                "weight_width_median_m": float(np.median(1.0 / np.sqrt(2.0 * result["arrays"]["gamma_w"]))),
+                "weight_nugget_median": float(np.median(result["arrays"]["eta_w"])),
             })
             if not args.json:
                 r = rows[-1]
                 ev = " / ".join(f"{100 * v:.4f}" for v in r["explained_variance"].values())
-                print(f"S = {S:2d} {name:5s} bound {r['bound']:12.1f} in {r['iterations']:3d} steps, "
-                      f"{r['wall_time_s']:6.1f} s; explained joints / ZMP / pelvis {ev} %", flush=True)
+                gain = "" if r["last_round_gain"] is None else f" (last round +{r['last_round_gain']:.1f})"
+                print(f"S = {S:2d} {name:5s} bound {r['bound']:12.1f}{gain} in {r['iterations']:3d} steps, "
+                      f"{r['wall_time_s']:6.1f} s; explained joints / ZMP / pelvis {ev} %; weight widths, "
+                      f"median {r['weight_width_median_m']:.3f} m, nuggets {r['weight_nugget_median']:.1e}", flush=True)
     if args.json:
         print(json.dumps({"rows": rows}))
     return 0

@@ -8,8 +8,9 @@ Holding out 150 or 400 mm asks for extrapolation beyond the training lengths.
 
 Methods:
 
-* ``movement_primitives``: the paper's model, ``MovementPrimitives(11, "rbf")`` fitted
-  with 300 L-BFGS iterations (the folds are fitted two at a time in spawned processes).
+* ``movement_primitives``: the paper's model with the bundled model's number of primitives
+  and kernel, fitted as ``cocomopl train`` fits, ``DEFAULT_MAX_ITERATIONS`` EM rounds (the
+  folds are fitted two at a time in spawned processes).
 * ``promp``: per step type, the 36 signals projected onto the normalised RBF basis of
   ``movement_primitives.promp.ProMP`` (20 basis functions per signal), and the weight
   vectors and log phase durations regressed on (start, end) length with one shared RBF
@@ -30,7 +31,7 @@ Usage::
     pip install -e ".[bench]"
     python benchmarks/primitive_peers.py [--quick] [--json]
 
-``--quick`` (5 primitives, 30 iterations, fewer timing repeats) checks that everything
+``--quick`` (5 primitives, 5 rounds, fewer timing repeats) checks that everything
 runs, in well under a minute; its movement-primitive signal errors mean nothing.  The
 fit time is the mean wall time of one fold's fit (the primitives' two at a time).
 """
@@ -47,9 +48,11 @@ import numpy as np
 from peers_evaluation import evaluate_lolo, fit_folds, length_mm, lolo_folds
 from scipy.spatial import Delaunay, QhullError
 
-from cocomopl.data import BUNDLED_DATASET
+from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
 from cocomopl.motion import StepSpec
+from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
 from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.primitives.model_file import model_metadata
 from cocomopl.primitives.training import (
     TrainingSteps,
     load_training_steps,
@@ -283,8 +286,9 @@ def main() -> int:
 
     steps = load_training_steps(DATASET)
     folds = lolo_folds(steps)
-    n_primitives, iterations = (5, 30) if args.quick else (11, 300)
-    mp = MovementPrimitives(n_primitives, "rbf", n_grid=N_GRID, max_iterations=iterations)
+    bundled = model_metadata(BUNDLED_MODEL)
+    n_primitives, iterations = (5, 5) if args.quick else (bundled["n_primitives"], DEFAULT_MAX_ITERATIONS)
+    mp = MovementPrimitives(n_primitives, bundled["kernel"], n_grid=N_GRID, max_iterations=iterations)
     # (estimator, fitting processes): a primitive fit takes tens of seconds on one core, so two
     # folds at a time; the peers fit in milliseconds
     methods = {"movement_primitives": (mp, 2), "promp": (ProMPPeer(), 1), "pca_interpolation": (PCAPeer(), 1)}

@@ -486,7 +486,7 @@ def _primitives_parsers(sub) -> None:
     train.add_argument("--kernels", type=_kernel_list, default=DEFAULT_KERNELS, metavar="K,K,...",
                        help="candidate time kernels (default: %s)" % ",".join(DEFAULT_KERNELS))
     train.add_argument("--max-iterations", type=_positive_int, default=DEFAULT_MAX_ITERATIONS, metavar="N",
-                       help="L-BFGS-B iterations per candidate, a count (default: %(default)s)")
+                       help="the most EM rounds per candidate, a count (default: %(default)s)")
     train.add_argument("--workers", type=_workers, metavar="N",
                        help="local worker processes, at most 4 per core (default: one per core)")
     _json_option(train)

@@ -9,7 +9,7 @@ from cocomopl.data import BUNDLED_DATASET
 from cocomopl.primitives import em
 from cocomopl.primitives.bound import free_energy, mp_prior, weight_prior
 from cocomopl.primitives.estimator import _SlotLayout, pca_signal_weights
-from cocomopl.primitives.optimise import initial_parameters, maximise_bound
+from cocomopl.primitives.optimise import LOG_BOUNDS, initial_parameters, maximise_bound
 from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample
 
 S, KERNEL = 3, "matern52"
@@ -18,6 +18,8 @@ S, KERNEL = 3, "matern52"
 @pytest.fixture(scope="module")
 def problem():
     steps = load_training_steps(BUNDLED_DATASET)
+    # every step type, but only the steps between 150 and 250 mm: a small problem
+    steps = steps.subset(k for k, s in enumerate(steps.specs) if max(s.start_length, s.end_length) <= 0.25)
     parts, types = learned_parts(steps)
     tau = np.linspace(0.0, 1.0, 20)
     X = resample(parts, phase_templates(parts, types), tau, types)
@@ -87,3 +89,4 @@ def test_the_m_step_cannot_lower_the_bound_and_moves_the_time_kernels(problem):
     assert _held_kl(q, new, data) <= _held_kl(q, hyper, data) + 1e-9 * abs(_held_kl(q, hyper, data))
     assert np.abs(new["log_ell_t"] - hyper["log_ell_t"]).max() > 0.1  # the time kernels learn
     assert np.abs(new["log_alpha_t"] - hyper["log_alpha_t"]).max() > 0.1
+    assert np.all((new["log_eta_w"] >= LOG_BOUNDS["log_eta_w"][0]) & (new["log_eta_w"] <= LOG_BOUNDS["log_eta_w"][1]))

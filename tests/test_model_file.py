@@ -255,6 +255,11 @@ def assign(name: str, index, value):
     return change
 
 
+def both(first, second):
+    """An edit: ``first``, then ``second``."""
+    return lambda arrays, meta: (first(arrays, meta), second(arrays, meta))
+
+
 def set_meta(key: str, value):
     return lambda arrays, meta: meta.update({key: value})
 
@@ -279,16 +284,16 @@ def swap_signals(i: int, j: int):
     return change
 
 
-# id: (edit, words of the message).  The bundled model has 15 primitives, 100 grid points,
+# id: (edit, words of the message).  The bundled model has 11 primitives, 100 grid points,
 # 36 signals (30 joints, then the ZMP and the pelvis angles) and 10 step types, the first
 # cyclic_left with training steps of 150 mm and up.
 EDITS = {
     "missing_array": (lambda arrays, meta: arrays.pop("dur_K_inv"), ["lacks the model arrays dur_K_inv"]),
     "wrong_shape": (replace("chi", lambda a: a[:, :, :3]),
-                    ["array 'chi' has shape (36, 15, 3), expected (36, 15, 10)",
-                     "for 36 signals, 15 primitives and 10 step types"]),
+                    ["array 'chi' has shape (36, 11, 3), expected (36, 11, 10)",
+                     "for 36 signals, 11 primitives and 10 step types"]),
     "wrong_ndim": (replace("m", lambda a: a[None]),
-                   ["array 'm' has shape (1, 15, 100), expected 2 dimensions (primitives, grid points)"]),
+                   ["array 'm' has shape (1, 11, 100), expected 2 dimensions (primitives, grid points)"]),
     "floats_as_integers": (replace("tau", lambda a: a.astype(np.int64)),
                            ["array 'tau' has dtype int64, expected floating-point numbers"]),
     "counts_as_floats": (replace("n_phases", lambda a: a.astype(float)),
@@ -299,19 +304,19 @@ EDITS = {
                         ["array 'unconditioned' has dtype float64, expected booleans"]),
     "nan": (assign("C", (0, 0, 0, 0, 0), np.nan), ["array 'C' holds nan at (0, 0, 0, 0, 0), expected finite numbers"]),
     "inf": (assign("dur_K_inv", (1, 0, 2, 2), -np.inf), ["array 'dur_K_inv' holds -inf at (1, 0, 2, 2)"]),
-    "primitives_in_metadata": (set_meta("n_primitives", 11),
-                               ["array 'm' has shape (15, 100), expected (11, 100)",
-                                "for 11 primitives and 100 grid points"]),
+    "primitives_in_metadata": (set_meta("n_primitives", 15),
+                               ["array 'm' has shape (11, 100), expected (15, 100)",
+                                "for 15 primitives and 100 grid points"]),
     "primitives_in_one_array": (replace("alpha_t", lambda a: a[:-1]),
-                                ["array 'alpha_t' has shape (14,), expected (15,) for 15 primitives"]),
+                                ["array 'alpha_t' has shape (10,), expected (11,) for 11 primitives"]),
     "grid_in_metadata": (set_meta("n_grid", 50), ["array 'tau' has shape (100,), expected (50,) for 50 grid points"]),
     "negative_length_scale": (assign("ell_t", 3, -0.1), ["array 'ell_t' holds -0.1 at (3,), expected positive values"]),
     "zero_kernel_variance": (assign("alpha_w", (2, 1), 0.0), ["array 'alpha_w' holds 0 at (2, 1), expected positive"]),
     "negative_distance": (assign("support_radius", 4, -1.0), ["array 'support_radius' holds -1", "non-negative"]),
     "unknown_kernel": (set_meta("kernel", "cubic"),
                        ["metadata 'kernel' is", '"cubic", expected one of rbf, matern32, matern52']),
-    "count_as_text": (set_meta("n_primitives", "15"),
-                      ["metadata 'n_primitives' is", '"15", expected a whole number >= 1']),
+    "count_as_text": (set_meta("n_primitives", "11"),
+                      ["metadata 'n_primitives' is", '"11", expected a whole number >= 1']),
     "count_as_boolean": (set_meta("n_iter", True), ["metadata 'n_iter' is true, expected a whole number >= 0"]),
     "one_grid_point": (set_meta("n_grid", 1), ["metadata 'n_grid' is 1, expected a whole number >= 2"]),
     "nan_bound": (set_meta("bound", float("nan")), ["metadata 'bound' is NaN, expected a finite number"]),
@@ -341,7 +346,9 @@ EDITS = {
                            "expected 0.001 to 60 s"]),
     "huge_weights": (replace("chi", lambda a: a * 1e6), ["the model predicts", "of its training step cyclic_150_L",
                                                          "expected at most 100 (rad or m)"]),
-    "primitives_vanish_at_start": (assign("m", (slice(None), 0), 0.0), ["the model predicts nan for signal"]),
+    # primitives that are zero and certain at the start: a conditioned start is 0 / 0
+    "primitives_vanish_at_start": (both(assign("m", (slice(None), 0), 0.0), assign("m_cov_start", (slice(None), 0), 0.0)),
+                                   ["the model predicts nan for signal"]),
 }
 
 

@@ -2,14 +2,15 @@
 
 Model (eq. 2): ``X[k, i, t] = sum_s W[i, s](l_k) MP[s](t) + eta``, ``eta ~ N(0, sigma_i^2)``.
 Priors: ``MP_s ~ GP(mu_s, A_s)`` with a time kernel (eq. 3) and ``mu_s`` from a PCA;
-``W_is(.) ~ GP(chi_is[type], B_is)`` with eq. (5)'s kernel.
+``W_is(.) ~ GP(chi_is[type], B_is)`` with eq. (5)'s kernel plus a learned nugget.
 
 Posterior ``Q = prod_s Q(MP_s) prod_is Q(W_is)``, each Gaussian.  Given the other
 factors, the optimal covariances are the prior precision plus a multiple of the identity
 (the noise is i.i.d. over time and over steps), so they are parametrised exactly so:
 ``Sigma_s = (A_s^-1 + d_s I)^-1`` and ``Omega_is = (B_is^-1 + c_is I)^-1``.  Means are
-whitened, ``m_s = mu_s + chol(A_s) u_s`` and ``w_is = chi_is + chol(B_is) v_is``, which
-keeps L-BFGS well conditioned while the kernels change.
+whitened, ``m_s = mu_s + chol(A_s) u_s`` and ``w_is = chi_is + chol(B_is) v_is`` (the
+parametrisation of the joint optimiser in :mod:`cocomopl.primitives.optimise`; the fit
+itself is by variational EM, :mod:`cocomopl.primitives.em`).
 
 Steps are laid out in slots ``(G types, N slots)``; eq. (5)'s Kronecker delta makes the
 weight covariance block-diagonal by type, so each type's block is handled on its own and
@@ -28,7 +29,7 @@ from cocomopl.primitives.kernels import time_kernel, weight_kernel
 
 jax.config.update("jax_enable_x64", True)
 
-JITTER = 1e-6  # relative nugget keeping the prior covariances positive definite
+JITTER = 1e-6  # relative nugget keeping the time kernels positive definite (the weight kernels learn theirs)
 
 
 @dataclass(frozen=True)
@@ -66,14 +67,19 @@ def mp_prior(params: dict, data: BoundData, kernel: str):
 
 
 def weight_prior(params: dict, data: BoundData):
-    """Prior covariances ``B`` (I, S, G, N, N) of the weights; empty slots get an identity row."""
+    """Prior covariances ``B`` (I, S, G, N, N) of the weights; empty slots get an identity row.
+
+    Eq. (5) plus a learned nugget ``alpha eta I``: a step's weight may differ from the smooth
+    function of the step lengths by independent variation of relative variance ``eta``.
+    """
     alpha = jnp.exp(params["log_alpha_w"])[:, :, None, None, None]
     gamma = jnp.exp(params["log_gamma_w"])[:, :, None, None, None]
+    eta = jnp.exp(params["log_eta_w"])[:, :, None, None, None]
     m = jnp.asarray(data.mask)
     both = m[:, :, None] * m[:, None, :]
     eye = jnp.eye(data.mask.shape[1])
     K = weight_kernel(data.d2, alpha, gamma) * both
-    return K + JITTER * alpha * eye * m[:, :, None] + eye * (1.0 - m[:, :, None])
+    return K + eta * alpha * eye * m[:, :, None] + eye * (1.0 - m[:, :, None])
 
 
 def posterior(params: dict, data: BoundData, kernel: str) -> dict:

@@ -9,9 +9,12 @@ each to its exact maximum given the others, which can only raise the bound:
   in closed form (coordinate ascent on the mean-field posterior);
 * the type means ``chi`` (a generalised least-squares mean per weight GP) and the noise
   ``sigma_i^2`` (the expected squared residual) in closed form;
-* **M-step**: the kernel hyperparameters by L-BFGS-B on the two KL terms, the posteriors held.
+* **M-step**: the kernel hyperparameters, the posteriors held: each kernel's shape (width,
+  and the weight kernels' nugget) from a log grid or its present value, its amplitude in
+  closed form.  A grid rather than L-BFGS-B: every candidate costs one matrix product for all
+  kernels at once, and keeping the present value among them means the bound cannot fall.
 
-Rounds repeat until the bound rises by less than ``TOLERANCE`` nats.  After an E-step the
+Rounds repeat until the bound rises by less than ``TOLERANCE`` nats, or ``max_rounds``.  After an E-step the
 posteriors have exactly the form :mod:`cocomopl.primitives.bound` parametrises
 (``Sigma_s = (A_s^-1 + d_s I)^-1``, ``Omega_is = (B_is^-1 + c_is I)^-1``), so the bound is
 evaluated, and the fit returned, by the same code as the joint optimiser's.
@@ -27,18 +30,19 @@ import numpy as np
 
 from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, posterior, weight_prior
 from cocomopl.primitives.kernels import time_kernel
-from cocomopl.primitives.optimise import LOG_BOUNDS, _prediction_arrays, initial_parameters
+from cocomopl.primitives.optimise import ETA_GRID, LOG_BOUNDS, _prediction_arrays, initial_parameters
 
 TOLERANCE = 1.0  # nats: a round that raises the bound by less ends the fit
-HYPERPARAMETERS = ("log_alpha_t", "log_ell_t", "log_alpha_w", "log_gamma_w")
-GRID_POINTS = 61  # log-spaced candidate widths per kernel in an M-step: 12 % apart for the time kernels
+HYPERPARAMETERS = ("log_alpha_t", "log_ell_t", "log_alpha_w", "log_gamma_w", "log_eta_w")
+GRID_POINTS = 61  # log-spaced candidate widths per time kernel in an M-step, 12 % apart
+WEIGHT_GRID_POINTS = 31  # and per weight kernel, 36 % apart, each with every nugget of ETA_GRID
 
 
 def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """``(I + scale K)^-1 rhs`` for kernels ``K`` (..., n, n), scales (...) and ``rhs`` (..., n, k).
 
-    Written without ``K^-1``: the kernels carry a 1e-6 nugget, so their inverses are
-    ill-conditioned where ``I + scale K`` is not.
+    Written without ``K^-1``: the kernels' nuggets can be as small as 1e-6, so their inverses
+    are ill-conditioned where ``I + scale K`` is not.
     """
     return np.linalg.solve(np.eye(K.shape[-1]) + scale[..., None, None] * K, rhs)
 
@@ -95,12 +99,6 @@ def means_and_noise(q: dict, B: np.ndarray, data: BoundData) -> dict:
     return {**q, "chi": chi, "sigma2": sigma2}
 
 
-def _profiled(inverse: np.ndarray, cov: np.ndarray, deviation: np.ndarray) -> np.ndarray:
-    """``tr(K^-1 S) + d' K^-1 d`` for kernel inverses ``K^-1`` (..., n, n) and posteriors
-    ``N(., S)`` with deviations ``d`` from the prior mean, batched (broadcast)."""
-    return np.einsum("...nm,...nm->...", inverse, cov) + np.einsum("...n,...nm,...m->...", deviation, inverse, deviation)
-
-
 def _inverse_and_log_det(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``K^-1`` and ``log|K|`` of symmetric positive-definite kernels (..., n, n), by Cholesky."""
     L = np.linalg.cholesky(K)
@@ -108,19 +106,35 @@ def _inverse_and_log_det(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.swapaxes(L_inv, -1, -2) @ L_inv, 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(-1)
 
 
-def _best_widths(widths: np.ndarray, traces: np.ndarray, log_dets: np.ndarray, n: float, log_alpha_limits) -> tuple:
-    """Per kernel, the candidate width and the log amplitude that minimise its KL terms.
+def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log_alpha_limits) -> tuple:
+    """Per kernel, the candidate shape (width, and nugget for the weight kernels) and the log
+    amplitude that minimise its KL terms, the posterior held.
 
-    A kernel is ``alpha (K(width) + JITTER I)``, so for each width the amplitude has a closed
-    form, ``alpha = trace / n``, and what is left to minimise is
-    ``(n log alpha + trace / alpha + log|K|) / 2``.  ``widths``, ``traces`` and ``log_dets``
-    are (candidates, ...).
+    A kernel is ``alpha K(shape)``; with the posterior's second moment about the prior mean,
+    ``M = S + d d'``, its KL terms are ``(n log alpha + tr(K^-1 M) / alpha + log|K|) / 2``, so
+    for each shape the amplitude has a closed form, ``alpha = tr(K^-1 M) / n``.
+
+    ``grid`` is (shape parameters, each (C,); unit-amplitude inverses (C, *core);
+    log-determinants (C,)), shared by every kernel; ``current`` the same for each kernel's
+    present shape, with (...) for (C,); ``moment`` is (..., *core).  Keeping the present
+    shape among the candidates means the KL terms cannot rise.
     """
+    (grid_shapes, grid_inverse, grid_log_det), (shapes, inverse, log_det) = grid, current
+    batch = inverse.shape[: moment.ndim - grid_inverse.ndim + 1]
+
+    def candidates(on_grid: np.ndarray, now: np.ndarray) -> np.ndarray:
+        """(C + 1, *batch): the grid's values for every kernel, then each kernel's present one."""
+        return np.concatenate([np.broadcast_to(on_grid.reshape(-1, *[1] * len(batch)), (len(on_grid), *batch)), now[None]])
+
+    flat = moment.reshape(int(np.prod(batch)), -1)
+    traces = np.concatenate([(grid_inverse.reshape(len(grid_inverse), -1) @ flat.T).reshape(-1, *batch),
+                             (inverse.reshape(flat.shape) * flat).sum(-1).reshape(1, *batch)])
     low, high = log_alpha_limits
     log_alpha = np.clip(np.log(np.maximum(traces, 1e-300) / n), low, high)
-    value = 0.5 * (n * log_alpha + traces * np.exp(-log_alpha) + log_dets)
+    value = 0.5 * (n * log_alpha + traces * np.exp(-log_alpha) + candidates(grid_log_det, log_det))
     best = np.argmin(value, axis=0)[None]
-    return np.take_along_axis(widths, best, axis=0)[0], np.take_along_axis(log_alpha, best, axis=0)[0]
+    chosen = [np.take_along_axis(candidates(g, now), best, axis=0)[0] for g, now in zip(grid_shapes, shapes)]
+    return chosen, np.take_along_axis(log_alpha, best, axis=0)[0]
 
 
 def _time_kernels(kernel: str, r: np.ndarray, ell: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -129,45 +143,46 @@ def _time_kernels(kernel: str, r: np.ndarray, ell: np.ndarray) -> tuple[np.ndarr
     return _inverse_and_log_det(K + JITTER * np.eye(len(r)))
 
 
-def _weight_kernels(data: BoundData, gamma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverses (..., G, N, N) and log-determinants summed over the types (...) of the
-    unit-amplitude weight kernels of widths ``gamma`` (...), an identity on empty slots."""
+    unit-amplitude weight kernels of widths ``gamma`` and nuggets ``eta`` (...), an identity
+    on empty slots."""
     mask = data.mask
     both = mask[:, :, None] * mask[:, None, :]
     eye = np.eye(mask.shape[1])
-    K = np.exp(-gamma[..., None, None, None] * data.d2) * both + JITTER * eye * mask[:, :, None] + eye * (1.0 - mask[:, :, None])
+    nugget = eta[..., None, None, None] * eye * mask[:, :, None]
+    K = np.exp(-gamma[..., None, None, None] * data.d2) * both + nugget + eye * (1.0 - mask[:, :, None])
     inverse, log_det = _inverse_and_log_det(K)
     return inverse, log_det.sum(-1)
 
 
 def m_step(q: dict, hyper: dict, data: BoundData, kernel: str) -> dict:
     """The kernel hyperparameters at their best, the posteriors held: per kernel the width
-    from a log-spaced grid of ``GRID_POINTS`` or its current value (so the bound cannot
-    fall), and the amplitude in closed form (:func:`_best_widths`)."""
-    S, T = data.mu.shape
-    # time kernels: one grid for all primitives, plus each primitive's current width
+    (and for the weight kernels the nugget) from a log-spaced grid or its current value (so
+    the bound cannot fall), and the amplitude in closed form (:func:`_best_kernels`)."""
+    # time kernels, per primitive
     ells = np.geomspace(float(data.r[0, 1]), 10.0, GRID_POINTS)
+    ell_now = np.exp(hyper["log_ell_t"])
     deviation = q["m"] - data.mu
-    inverse, log_det = _time_kernels(kernel, data.r, ells)  # (C, T, T), (C,)
-    traces = np.stack([_profiled(k, q["Sig"], deviation) for k in inverse])  # (C, S)
-    current, current_log_det = _time_kernels(kernel, data.r, np.exp(hyper["log_ell_t"]))  # (S, T, T), (S,)
-    widths = np.vstack([np.broadcast_to(ells[:, None], traces.shape), np.exp(hyper["log_ell_t"])[None]])
-    traces = np.vstack([traces, _profiled(current, q["Sig"], deviation)[None]])
-    log_dets = np.vstack([np.broadcast_to(log_det[:, None], widths[:-1].shape), current_log_det[None]])
-    ell, log_alpha_t = _best_widths(widths, traces, log_dets, T, LOG_BOUNDS["log_alpha_t"])
-    # weight kernels, per (signal, primitive), summed over the step types
+    moment = q["Sig"] + deviation[:, :, None] * deviation[:, None, :]  # (S, T, T)
+    (ell,), log_alpha_t = _best_kernels(
+        ((ells,), *_time_kernels(kernel, data.r, ells)),
+        ((ell_now,), *_time_kernels(kernel, data.r, ell_now)),
+        moment, data.r.shape[0], LOG_BOUNDS["log_alpha_t"],
+    )
+    # weight kernels, per (signal, primitive), over all step types at once
     mask = data.mask
-    Om = q["Om"] * (mask[:, :, None] * mask[:, None, :])
     deviation = (q["w"] - q["chi"][..., None]) * mask
-    gammas = np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), GRID_POINTS)
-    inverse, log_det = _weight_kernels(data, gammas)  # (C, G, N, N), (C,)
-    traces = np.stack([_profiled(k, Om, deviation).sum(-1) for k in inverse])  # (C, I, S)
-    current, current_log_det = _weight_kernels(data, np.exp(hyper["log_gamma_w"]))  # (I, S, G, N, N), (I, S)
-    widths = np.vstack([np.broadcast_to(gammas[:, None, None], traces.shape), np.exp(hyper["log_gamma_w"])[None]])
-    traces = np.vstack([traces, _profiled(current, Om, deviation).sum(-1)[None]])
-    log_dets = np.vstack([np.broadcast_to(log_det[:, None, None], widths[:-1].shape), current_log_det[None]])
-    gamma, log_alpha_w = _best_widths(widths, traces, log_dets, mask.sum(), LOG_BOUNDS["log_alpha_w"])
-    return {"log_alpha_t": log_alpha_t, "log_ell_t": np.log(ell), "log_alpha_w": log_alpha_w, "log_gamma_w": np.log(gamma)}
+    moment = q["Om"] * (mask[:, :, None] * mask[:, None, :]) + deviation[..., :, None] * deviation[..., None, :]
+    gammas, etas = (g.ravel() for g in np.meshgrid(np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), WEIGHT_GRID_POINTS), ETA_GRID))
+    gamma_now, eta_now = np.exp(hyper["log_gamma_w"]), np.exp(hyper["log_eta_w"])
+    (gamma, eta), log_alpha_w = _best_kernels(
+        ((gammas, etas), *_weight_kernels(data, gammas, etas)),
+        ((gamma_now, eta_now), *_weight_kernels(data, gamma_now, eta_now)),
+        moment, mask.sum(), LOG_BOUNDS["log_alpha_w"],
+    )
+    return {"log_alpha_t": log_alpha_t, "log_ell_t": np.log(ell), "log_alpha_w": log_alpha_w,
+            "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)}
 
 
 def as_parameters(q: dict, hyper: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:

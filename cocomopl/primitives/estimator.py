@@ -5,8 +5,8 @@
 >>> step.values            # (T, 36) signals on the step's normalised time grid
 >>> model.score(steps)     # explained variance of the signals, 1 is perfect
 
-Fitting maximises the free energy of :mod:`cocomopl.primitives.bound` with L-BFGS-B and
-JAX gradients.  Prediction is NumPy only: a fitted model keeps, per step type, the few
+Fitting maximises the free energy of :mod:`cocomopl.primitives.bound` by variational EM
+(:mod:`cocomopl.primitives.em`).  Prediction is NumPy only: a fitted model keeps, per step type, the few
 arrays the weight GPs need, so that a step costs a handful of small matrix products.
 """
 
@@ -36,6 +36,7 @@ from cocomopl.primitives.training import (
 SIGNAL_GROUPS = ("joints", "zmp", "pelvis")
 CONDITION_RATIO = 1e-6  # start-state noise relative to the predicted start variance: "nearly equal"
 VARIANCE_FLOOR = 1e-6  # relative to the prior: keeps conditioning defined at training points
+SAME_LENGTHS_M2 = 1e-12  # squared length distance (1 um) below which a step has a training step's lengths
 
 
 def signal_groups(names: list[str]) -> dict[str, np.ndarray]:
@@ -89,7 +90,7 @@ class PredictedStep:
         self.spec = spec
         self.tau = tau
         self.values = values
-        self._std_terms = std_terms  # per part: (weights, weight_cov, primitives, primitive_var)
+        self._std_terms = std_terms  # per part: (weights, weight_cov, primitives, primitive_var, reduction)
         self.boundaries = boundaries
         self.durations = durations
         self.duration_std = duration_std
@@ -135,13 +136,14 @@ class PredictedStep:
         )
 
 
-def _signal_std(weights, weight_cov, primitives, primitive_var) -> np.ndarray:
+def _signal_std(weights, weight_cov, primitives, primitive_var, reduction) -> np.ndarray:
     """Standard deviation (T, I) of ``x_i(t) = w_i @ MP(t)`` for weights ``w_i ~ N(weights_i,
     weight_cov_i)`` (I, S), (I, S, S) and independent primitives ``MP_s(t) ~ N(primitives, primitive_var)``
-    (S, T) each: ``m(t)' P_i m(t) + sum_s (w_is^2 + P_i,ss) v_s(t)``."""
+    (S, T) each, ``m(t)' P_i m(t) + sum_s (w_is^2 + P_i,ss) v_s(t)``, less the variance
+    ``reduction`` (T, I) that conditioning on the step's start removed (:func:`_condition`)."""
     weight_var = np.diagonal(weight_cov, axis1=1, axis2=2)
     variance = np.einsum("st,isu,ut->it", primitives, weight_cov, primitives) + (weights**2 + weight_var) @ primitive_var
-    return np.sqrt(np.maximum(variance, 0.0)).T
+    return np.sqrt(np.maximum(variance.T - reduction, 0.0))
 
 
 class MovementPrimitives:
@@ -156,7 +158,7 @@ class MovementPrimitives:
     n_grid : int
         Points of the normalised time grid per step.
     max_iterations : int
-        The most L-BFGS-B iterations; the fit stops earlier once converged.
+        The most EM rounds; the fit stops earlier once a round gains less than ``em.TOLERANCE``.
     verbose : bool
         Show the progress of :meth:`fit` on stderr: its iterations and the bound.
     """
@@ -227,7 +229,7 @@ class MovementPrimitives:
         X = resample(parts, templates, tau, types)
         layout = _SlotLayout(parts, types)
         description = f"fitting {self.n_primitives} {self.kernel} primitives"
-        with tqdm(total=self.max_iterations, desc=description, unit="iteration", disable=not self.verbose) as bar:
+        with tqdm(total=self.max_iterations, desc=description, unit="round", disable=not self.verbose) as bar:
             result = em.maximise_bound_em(
                 layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations,
                 pca_signal_weights(X, steps.signal_names),
@@ -249,8 +251,10 @@ class MovementPrimitives:
         self.bound_ = result["bound"]
         self.n_iter_ = result["iterations"]
         self.fit_time_s_ = time.perf_counter() - started
-        # over the learned trajectories: every step, the stops in their two parts
-        self.explained_variance_ = explained_variance(X, layout.from_slots(result["reconstruction"]), steps.signal_names)
+        # of the learned trajectories (every step, the stops in their two parts) as the model
+        # predicts them from their specs: the weight GPs' nuggets smooth across the steps
+        X_hat = np.stack([self._predict_trajectory(t, spec, None).values.T for t, spec in zip(types, parts.specs)])
+        self.explained_variance_ = explained_variance(X, X_hat, steps.signal_names)
         return self
 
     def validate(self, steps: TrainingSteps) -> None:
@@ -312,8 +316,9 @@ class MovementPrimitives:
                 "dur_K_inv": np.ascontiguousarray(s["dur_K_inv"][g, :P, :n, :n]),
                 "alpha_w": s["alpha_w"].ravel(),
                 "minus_gamma_w": -s["gamma_w"].ravel(),
-                "floor": VARIANCE_FLOOR * s["alpha_w"].ravel(),
-                "h": s["m"][:, 0].copy(),
+                "nugget": s["alpha_w"].ravel() * s["eta_w"].ravel(),
+                # a new step's weights vary about the smooth function by the nugget too
+                "floor": (VARIANCE_FLOOR + s["eta_w"].ravel()) * s["alpha_w"].ravel(),
                 "conditioned": (~s["unconditioned"]).astype(float),
             }
         return self._cache[type_]
@@ -359,25 +364,31 @@ class MovementPrimitives:
         z = step_lengths(spec)
         d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
         # weights of all (signal, primitive) pairs at once, flattened to (I*S,): cross-covariances
-        # with the type's training steps, then the GP posterior mean and variance
+        # with the type's training steps, then the GP posterior mean and variance.  The nugget
+        # is a step's own variation (kriging's nugget effect): it is shared with a training
+        # step of the same lengths, which the prediction then reproduces, and with no other
         b = c["alpha_w"] * np.exp(np.multiply.outer(d2, c["minus_gamma_w"]))  # (n, I*S)
+        b += np.multiply.outer(d2 < SAME_LENGTHS_M2, c["nugget"])
         w = c["chi"] + np.einsum("nk,nk->k", c["beta"], b)
         var = c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0)
         shape = self.state_["alpha_w"].shape
         w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
         cov = var[:, :, None] * np.eye(shape[1])  # the weights of different primitives are independent
+        m = self.state_["m"]
+        values, reduction = (w @ m).T, np.zeros((m.shape[1], shape[0]))
         if start is not None:
-            w, cov = _condition(w, cov, np.asarray(start, dtype=float), c["h"], c["conditioned"])
+            values, reduction = _condition(
+                w, cov, m, self.state_["m_cov_start"], np.asarray(start, dtype=float), c["conditioned"]
+            )
         k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2)  # (P, n)
         durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=1))
         log_var = c["dur_alpha"][:, 0] - (k[:, None, :] @ c["dur_K_inv"] @ k[:, :, None])[:, 0, 0]
         distance = float(np.sqrt(d2.min()))
-        m = self.state_["m"]
         return PredictedStep(
             spec,
             self.state_["tau"],
-            (w @ m).T,
-            [(w, cov, m, self.state_["m_var"])],
+            values,
+            [(w, cov, m, self.state_["m_var"], reduction)],
             c["boundaries"],
             durations,
             durations * np.sqrt(np.maximum(log_var, 0.0)),
@@ -412,15 +423,32 @@ def _show_iteration(bar: tqdm, bound: float) -> None:
     bar.update()
 
 
-def _condition(w, cov, start, h, conditioned) -> tuple[np.ndarray, np.ndarray]:
-    """Gaussian conditioning of each signal's weights, ``w`` (I, S) with covariance ``cov``
-    (I, S, S), on its value ``h @ w`` at the step's start, observed with a variance of
-    ``CONDITION_RATIO`` times its predicted one: per signal a rank-one Kalman update, whose
-    covariance couples the primitives' weights (so the start's variance is the observation's).
+def _condition(w, cov, m, m_cov_start, start, conditioned) -> tuple[np.ndarray, np.ndarray]:
+    """Condition each signal ``x_i(t) = W_i @ MP(t)`` on its value at the step's start.
+
+    ``start`` (I,) is observed with a variance of ``CONDITION_RATIO`` times the predicted
+    one, only for the ``conditioned`` signals (I,).  The weights ``W_i ~ N(w_i, cov_i)`` (I, S),
+    (I, S, S) and the primitives (means ``m`` (S, T), covariance with their start
+    ``m_cov_start`` (S, T)) are both uncertain and their product is not Gaussian, so the
+    update is the best linear one (the Gaussian update with the exact first two moments):
+    every ``x_i(t)`` moves by ``Cov(x_i(t), x_i(0)) / Var(x_i(0))`` times the start's
+    innovation, and its variance falls by ``Cov(x_i(t), x_i(0))^2 / Var(x_i(0))``.  At the
+    start, what remains is the observation's variance.
+
+    Returns
+    -------
+    values : (T, I) the conditioned signals' means
+    reduction : (T, I) the variance conditioning removed
     """
-    Ph = cov @ h  # (I, S)
-    gain = Ph * (conditioned / ((Ph @ h) * (1.0 + CONDITION_RATIO)))[:, None]
-    return w + gain * (start - w @ h)[:, None], cov - gain[:, :, None] * Ph[:, None, :]
+    h = m[:, 0]
+    second = w**2 + np.diagonal(cov, axis1=1, axis2=2)  # E[W_is^2], (I, S)
+    through_weights = cov @ h  # Cov(W_i, x_i(0)), (I, S)
+    through_primitives = (second @ m_cov_start).T  # (T, I): the primitives' share of Cov(x_i(t), x_i(0))
+    cross = (through_weights @ m).T + through_primitives  # Cov(x_i(t), x_i(0)), (T, I)
+    observed = cross[0] * (1.0 + CONDITION_RATIO)  # Var(x_i(0)) plus the observation's variance
+    gain = conditioned * (start - w @ h) / observed  # (I,)
+    values = ((w + through_weights * gain[:, None]) @ m).T + through_primitives * gain
+    return values, conditioned * cross**2 / observed
 
 
 class _SlotLayout:

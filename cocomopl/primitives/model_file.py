@@ -41,7 +41,9 @@ from cocomopl.robot.description import read_description
 FORMAT = "cocomopl-model"
 # 2: stops are learned in two parts, step types ``stop_<side>_part1`` and ``_part2``
 # (version 1 had whole stops, which this version's prediction does not chain)
-FORMAT_VERSION = 2
+# 3: ``m_cov_start``, each primitive's posterior covariance with its start, which
+# conditioning on a step's start needs, and ``eta_w``, the weight kernels' learned nuggets
+FORMAT_VERSION = 3
 METADATA_KEY = "__metadata__"
 # what np.load and reading an archive member raise on a truncated, corrupt or foreign file
 _UNREADABLE = (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, KeyError)
@@ -61,7 +63,7 @@ _AXES = {
 # ell_t, which describe the fit): its dtype kind, its axes (letters of _AXES) and the sign
 # its values must have: kernel amplitudes, widths and noise levels positive; lengths,
 # distances and the duration amplitudes (0 where a type has fewer phases) at least zero.
-# ``m_var`` and ``C`` have none: they are computed (co)variances, round-off may leave an
+# ``m_var``, ``m_cov_start`` and ``C`` have none: they are computed (co)variances, round-off may leave an
 # entry slightly below zero, and prediction clips what it derives from them.
 _ARRAYS = {
     # MovementPrimitives.fit
@@ -75,8 +77,10 @@ _ARRAYS = {
     # optimise._prediction_arrays
     "m": ("f", "ST", None),
     "m_var": ("f", "ST", None),
+    "m_cov_start": ("f", "ST", None),
     "alpha_w": ("f", "IS", ">0"),
     "gamma_w": ("f", "IS", ">0"),
+    "eta_w": ("f", "IS", ">0"),
     "chi": ("f", "ISG", None),
     "beta": ("f", "ISGN", None),
     "C": ("f", "ISGNN", None),

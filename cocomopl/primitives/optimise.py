@@ -1,7 +1,13 @@
-"""Maximise the free energy (eq. 6) with L-BFGS-B, starting from a PCA of the data."""
+"""The PCA start of the fit, the arrays prediction needs, and the joint L-BFGS-B optimiser.
+
+The estimator fits by variational EM (:mod:`cocomopl.primitives.em`) from this start.  The
+joint optimiser, which the models before format version 3 were fitted with, is kept as the
+reference EM is measured against (``benchmarks/learner_em.py --joint``).
+"""
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 
 import jax
@@ -14,11 +20,13 @@ from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, 
 
 # (lower, upper) for the log-parameters; the rest are unbounded.  They keep the kernels
 # numerically sane: time length scales between a grid step and 10 steps, weight-kernel
-# widths between 7 mm and 0.7 m of step length.
+# widths between 7 mm and 0.7 m of step length, their nuggets from the time kernels'
+# JITTER to the kernel's amplitude.
 LOG_BOUNDS = {
     "log_alpha_t": (np.log(1e-8), np.log(1e2)),
     "log_alpha_w": (np.log(1e-12), np.log(1e2)),
     "log_gamma_w": (np.log(1.0), np.log(1e4)),
+    "log_eta_w": (np.log(JITTER), 0.0),
     "log_sigma": (np.log(1e-6), np.log(1.0)),
     "log_d": (-30.0, 40.0),
     "log_c": (-30.0, 40.0),
@@ -26,6 +34,7 @@ LOG_BOUNDS = {
 
 
 GAMMA_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 3e3, 1e4)  # 1/m^2: widths 0.7 m .. 7 mm
+ETA_GRID = tuple(np.geomspace(JITTER, 1.0, 7))  # relative nuggets, a decade apart
 
 
 def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, mu: np.ndarray) -> BoundData:
@@ -44,7 +53,7 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
     sigma = np.maximum(np.sqrt((residual**2).mean(axis=(0, 2))), 1e-5)
     counts = mask.sum(axis=1)
     chi = (w * mask).sum(axis=-1) / counts
-    alpha_w, gamma_w = _weight_kernel_start(w - chi[..., None], mask, d2)
+    alpha_w, gamma_w, eta_w = _weight_kernel_start(w - chi[..., None], mask, d2)
     params = {
         "u": np.zeros((S, T)),
         "log_d": np.log(np.einsum("isgn,i->s", w**2 * mask, 1 / sigma**2) + 1.0),
@@ -53,6 +62,7 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
         "log_ell_t": np.full(S, np.log(0.1)),
         "log_alpha_w": np.log(alpha_w),
         "log_gamma_w": np.log(gamma_w),
+        "log_eta_w": np.log(eta_w),
         "chi": chi,
         "log_sigma": np.log(sigma),
     }
@@ -62,29 +72,31 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
     return params, data
 
 
-def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per (signal, primitive), the eq. (5) kernel that best explains the PCA weights.
+def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per (signal, primitive), the eq. (5) kernel that best explains the PCA weights:
+    amplitude, width and nugget.
 
-    A grid over the width, with the amplitude in closed form (profile likelihood).  Starting
-    L-BFGS from widths the data support matters: with a too-wide kernel the whitened weights
-    blow up and the KL term swamps the bound.
+    A grid over the width and the nugget, with the amplitude in closed form (profile
+    likelihood).  Starting L-BFGS from widths the data support matters: with a too-wide
+    kernel the whitened weights blow up and the KL term swamps the bound.
     """
     n = mask.sum()
     best = None
-    for gamma in GAMMA_GRID:
+    for gamma, eta in itertools.product(GAMMA_GRID, ETA_GRID):
         B = np.exp(-gamma * d2) * (mask[:, :, None] * mask[:, None, :])
-        B = B + np.eye(d2.shape[-1]) * (1.0 - mask[:, :, None]) + JITTER * np.eye(d2.shape[-1]) * mask[:, :, None]
+        B = B + np.eye(d2.shape[-1]) * (1.0 - mask[:, :, None]) + eta * np.eye(d2.shape[-1]) * mask[:, :, None]
         L = np.linalg.cholesky(B)  # (G, N, N), shared by all (i, s)
         z = np.linalg.solve(L, (deviation * mask)[..., None])[..., 0]  # (I, S, G, N)
         alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)
         log_det = 2 * (np.log(np.diagonal(L, axis1=-2, axis2=-1)) * mask).sum()
         score = -0.5 * (n * np.log(alpha) + log_det)
+        candidate = (score, alpha, np.full_like(alpha, gamma), np.full_like(alpha, eta))
         if best is None:
-            best = (score, alpha, np.full_like(alpha, gamma))
+            best = candidate
         else:
             better = score > best[0]
-            best = (np.where(better, score, best[0]), np.where(better, alpha, best[1]), np.where(better, gamma, best[2]))
-    return best[1], best[2]
+            best = tuple(np.where(better, new, old) for new, old in zip(candidate, best))
+    return best[1:]
 
 
 def maximise_bound(
@@ -149,7 +161,7 @@ def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
     q = {k: np.asarray(v) for k, v in posterior(params, data, kernel).items()}
     A = np.asarray(mp_prior(params, data, kernel))
     d = np.exp(params["log_d"])[:, None, None]
-    m_var = np.diagonal(A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A), axis1=1, axis2=2)
+    m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
     B = np.asarray(weight_prior(params, data))
     L_B = np.linalg.cholesky(B)
     beta = np.linalg.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None])[..., 0] * data.mask
@@ -158,9 +170,11 @@ def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
     both = data.mask[:, :, None] * data.mask[:, None, :]
     return {
         "m": q["m"],
-        "m_var": m_var,
+        "m_var": np.diagonal(m_cov, axis1=1, axis2=2),
+        "m_cov_start": m_cov[:, :, 0],
         "alpha_w": np.exp(params["log_alpha_w"]),
         "gamma_w": np.exp(params["log_gamma_w"]),
+        "eta_w": np.exp(params["log_eta_w"]),
         "chi": params["chi"],
         "beta": beta,
         "C": C * both,

@@ -60,7 +60,7 @@ def select_model(
     ----------
     steps : the training steps
     n_primitives, kernels : the candidates are all their combinations
-    max_iterations : the most L-BFGS-B iterations of each fit
+    max_iterations : the most EM rounds of each fit
     workers : processes to fit in.  They are spawned, not forked: a forked JAX runtime can hang
     progress : show a bar of the candidates fitted on stderr.  The candidates' own per-iteration
         progress (``verbose``) stays off: bars from parallel processes would overwrite each other
@@ -80,7 +80,8 @@ def select_model(
         model.validate(steps)
     fitted = []
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = [pool.submit(model.fit, steps) for model in models]
+        # the largest first, so that the two processes finish together
+        futures = [pool.submit(model.fit, steps) for model in sorted(models, key=lambda m: -m.n_primitives)]
         for future in tqdm(as_completed(futures), total=len(futures), desc="fitting", unit="model", disable=not progress):
             fitted.append(future.result())
     fitted.sort(key=lambda m: (m.kernel, m.n_primitives))
@@ -99,7 +100,7 @@ def choose(rows: list[dict]) -> int:
     by_kernel = {}
     for i in sorted(range(len(rows)), key=lambda i: rows[i]["n_primitives"]):
         by_kernel.setdefault(rows[i]["kernel"], []).append(i)
-    if any(bound_of(b) < bound_of(a) for ids in by_kernel.values() for a, b in zip(ids, ids[1:])):
+    if any(bound_of(b) < bound_of(a) for ids in by_kernel.values() for a, b in itertools.pairwise(ids)):
         return max(range(len(rows)), key=bound_of)
     enough = [i for i, row in enumerate(rows) if min(row["explained_variance"].values()) >= EXPLAINED_ENOUGH]
     S = min((rows[i]["n_primitives"] for i in enough), default=max(row["n_primitives"] for row in rows))
