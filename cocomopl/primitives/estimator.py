@@ -90,7 +90,7 @@ class PredictedStep:
         self.spec = spec
         self.tau = tau
         self.values = values
-        self._std_terms = std_terms  # per part: (weights, weight_cov, primitives, primitive_var, reduction)
+        self._std_terms = std_terms  # per part: (weights, weight_var, primitives, primitive_var, reduction)
         self.boundaries = boundaries
         self.durations = durations
         self.duration_std = duration_std
@@ -136,13 +136,12 @@ class PredictedStep:
         )
 
 
-def _signal_std(weights, weight_cov, primitives, primitive_var, reduction) -> np.ndarray:
-    """Standard deviation (T, I) of ``x_i(t) = w_i @ MP(t)`` for weights ``w_i ~ N(weights_i,
-    weight_cov_i)`` (I, S), (I, S, S) and independent primitives ``MP_s(t) ~ N(primitives, primitive_var)``
-    (S, T) each, ``m(t)' P_i m(t) + sum_s (w_is^2 + P_i,ss) v_s(t)``, less the variance
-    ``reduction`` (T, I) that conditioning on the step's start removed (:func:`_condition`)."""
-    weight_var = np.diagonal(weight_cov, axis1=1, axis2=2)
-    variance = np.einsum("st,isu,ut->it", primitives, weight_cov, primitives) + (weights**2 + weight_var) @ primitive_var
+def _signal_std(weights, weight_var, primitives, primitive_var, reduction) -> np.ndarray:
+    """Standard deviation (T, I) of ``x_i(t) = w_i @ MP(t)`` for independent weights
+    ``W_is ~ N(weights, weight_var)`` (I, S) and primitives ``MP_s(t) ~ N(primitives,
+    primitive_var)`` (S, T), ``sum_s P_is m_s(t)^2 + (w_is^2 + P_is) v_s(t)``, less the
+    variance ``reduction`` (T, I) that conditioning on the step's start removed (:func:`_condition`)."""
+    variance = weight_var @ primitives**2 + (weights**2 + weight_var) @ primitive_var
     return np.sqrt(np.maximum(variance.T - reduction, 0.0))
 
 
@@ -373,12 +372,11 @@ class MovementPrimitives:
         var = c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0)
         shape = self.state_["alpha_w"].shape
         w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
-        cov = var[:, :, None] * np.eye(shape[1])  # the weights of different primitives are independent
         m = self.state_["m"]
         values, reduction = (w @ m).T, np.zeros((m.shape[1], shape[0]))
         if start is not None:
             values, reduction = _condition(
-                w, cov, m, self.state_["m_cov_start"], np.asarray(start, dtype=float), c["conditioned"]
+                w, var, m, self.state_["m_cov_start"], np.asarray(start, dtype=float), c["conditioned"]
             )
         k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2)  # (P, n)
         durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=1))
@@ -388,7 +386,7 @@ class MovementPrimitives:
             spec,
             self.state_["tau"],
             values,
-            [(w, cov, m, self.state_["m_var"], reduction)],
+            [(w, var, m, self.state_["m_var"], reduction)],
             c["boundaries"],
             durations,
             durations * np.sqrt(np.maximum(log_var, 0.0)),
@@ -423,12 +421,12 @@ def _show_iteration(bar: tqdm, bound: float) -> None:
     bar.update()
 
 
-def _condition(w, cov, m, m_cov_start, start, conditioned) -> tuple[np.ndarray, np.ndarray]:
+def _condition(w, var, m, m_cov_start, start, conditioned) -> tuple[np.ndarray, np.ndarray]:
     """Condition each signal ``x_i(t) = W_i @ MP(t)`` on its value at the step's start.
 
     ``start`` (I,) is observed with a variance of ``CONDITION_RATIO`` times the predicted
-    one, only for the ``conditioned`` signals (I,).  The weights ``W_i ~ N(w_i, cov_i)`` (I, S),
-    (I, S, S) and the primitives (means ``m`` (S, T), covariance with their start
+    one, only for the ``conditioned`` signals (I,).  The weights ``W_is ~ N(w_is, var_is)``
+    (I, S), independent of each other, and the primitives (means ``m`` (S, T), covariance with their start
     ``m_cov_start`` (S, T)) are both uncertain and their product is not Gaussian, so the
     update is the best linear one (the Gaussian update with the exact first two moments):
     every ``x_i(t)`` moves by ``Cov(x_i(t), x_i(0)) / Var(x_i(0))`` times the start's
@@ -441,8 +439,8 @@ def _condition(w, cov, m, m_cov_start, start, conditioned) -> tuple[np.ndarray, 
     reduction : (T, I) the variance conditioning removed
     """
     h = m[:, 0]
-    second = w**2 + np.diagonal(cov, axis1=1, axis2=2)  # E[W_is^2], (I, S)
-    through_weights = cov @ h  # Cov(W_i, x_i(0)), (I, S)
+    second = w**2 + var  # E[W_is^2], (I, S)
+    through_weights = var * h  # Cov(W_i, x_i(0)), (I, S)
     through_primitives = (second @ m_cov_start).T  # (T, I): the primitives' share of Cov(x_i(t), x_i(0))
     cross = (through_weights @ m).T + through_primitives  # Cov(x_i(t), x_i(0)), (T, I)
     observed = cross[0] * (1.0 + CONDITION_RATIO)  # Var(x_i(0)) plus the observation's variance
