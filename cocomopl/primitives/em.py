@@ -14,10 +14,10 @@ each to its exact maximum given the others, which can only raise the bound:
   closed form.  A grid rather than L-BFGS-B: every candidate costs one matrix product for all
   kernels at once, and keeping the present value among them means the bound cannot fall.
 
-Rounds repeat until the bound rises by less than ``TOLERANCE`` nats, or ``max_rounds``.  After an E-step the
-posteriors have exactly the form :mod:`cocomopl.primitives.bound` parametrises
-(``Sigma_s = (A_s^-1 + d_s I)^-1``, ``Omega_is = (B_is^-1 + c_is I)^-1``), so the bound is
-evaluated, and the fit returned, by the same code as the joint optimiser's.
+Rounds repeat until the bound rises by less than ``TOLERANCE`` nats, or ``max_rounds``.
+After an E-step the posteriors have exactly the form :mod:`cocomopl.primitives.bound`
+parametrises (``Sigma_s = (A_s^-1 + d_s I)^-1``, ``Omega_is = (B_is^-1 + c_is I)^-1``), so
+the bound is evaluated, and the fit returned, by the same code as the joint optimiser's.
 """
 
 from __future__ import annotations
@@ -30,7 +30,13 @@ import numpy as np
 
 from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, posterior, weight_prior
 from cocomopl.primitives.kernels import time_kernel
-from cocomopl.primitives.optimise import ETA_GRID, LOG_BOUNDS, _prediction_arrays, initial_parameters
+from cocomopl.primitives.optimise import (
+    ETA_GRID,
+    LOG_BOUNDS,
+    _prediction_arrays,
+    initial_parameters,
+    unit_weight_kernels,
+)
 
 TOLERANCE = 1.0  # nats: a round that raises the bound by less ends the fit
 HYPERPARAMETERS = ("log_alpha_t", "log_ell_t", "log_alpha_w", "log_gamma_w", "log_eta_w")
@@ -147,12 +153,7 @@ def _weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tupl
     """Inverses (..., G, N, N) and log-determinants summed over the types (...) of the
     unit-amplitude weight kernels of widths ``gamma`` and nuggets ``eta`` (...), an identity
     on empty slots."""
-    mask = data.mask
-    both = mask[:, :, None] * mask[:, None, :]
-    eye = np.eye(mask.shape[1])
-    nugget = eta[..., None, None, None] * eye * mask[:, :, None]
-    K = np.exp(-gamma[..., None, None, None] * data.d2) * both + nugget + eye * (1.0 - mask[:, :, None])
-    inverse, log_det = _inverse_and_log_det(K)
+    inverse, log_det = _inverse_and_log_det(unit_weight_kernels(data.d2, data.mask, gamma, eta))
     return inverse, log_det.sum(-1)
 
 

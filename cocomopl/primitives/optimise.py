@@ -72,6 +72,16 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
     return params, data
 
 
+def unit_weight_kernels(d2: np.ndarray, mask: np.ndarray, gamma, eta) -> np.ndarray:
+    """Eq. (5)'s kernel of unit amplitude plus the relative nugget, per step type: (..., G, N, N)
+    for widths ``gamma`` and nuggets ``eta`` (...), with an identity on empty slots so that it
+    stays invertible."""
+    eye = np.eye(mask.shape[1])
+    both = mask[:, :, None] * mask[:, None, :]
+    gamma, eta = (np.asarray(x)[..., None, None, None] for x in (gamma, eta))
+    return np.exp(-gamma * d2) * both + eta * eye * mask[:, :, None] + eye * (1.0 - mask[:, :, None])
+
+
 def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, ...]:
     """Per (signal, primitive), the eq. (5) kernel that best explains the PCA weights:
     amplitude, width and nugget.
@@ -83,9 +93,7 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     n = mask.sum()
     best = None
     for gamma, eta in itertools.product(GAMMA_GRID, ETA_GRID):
-        B = np.exp(-gamma * d2) * (mask[:, :, None] * mask[:, None, :])
-        B = B + np.eye(d2.shape[-1]) * (1.0 - mask[:, :, None]) + eta * np.eye(d2.shape[-1]) * mask[:, :, None]
-        L = np.linalg.cholesky(B)  # (G, N, N), shared by all (i, s)
+        L = np.linalg.cholesky(unit_weight_kernels(d2, mask, gamma, eta))  # (G, N, N), shared by all (i, s)
         z = np.linalg.solve(L, (deviation * mask)[..., None])[..., 0]  # (I, S, G, N)
         alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)
         log_det = 2 * (np.log(np.diagonal(L, axis1=-2, axis2=-1)) * mask).sum()
