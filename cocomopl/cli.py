@@ -227,6 +227,24 @@ def cmd_dataset_check(args) -> int:
     return 0 if report["ok"] else 1
 
 
+def cmd_dataset_family(args) -> int:
+    from cocomopl.primitives.family import GROUPS
+    from cocomopl.jobs import check_family_file
+
+    report = check_family_file(args.file, args.model, args.lengths_mm, args.workers, progress=not args.json)
+    lines = [f"{report['solved']} steps solved at {', '.join(f'{x:g}' for x in report['lengths_mm'])} mm in "
+             f"{report['solve_s']:.0f} s" + (f"; not converged: {', '.join(report['failed'])}" if report["failed"] else ""),
+             "RMS distance of the OC steps from the model's prediction (and from the linear interpolation of the",
+             "trained steps around them); joints and pelvis in mrad, ZMP in mm:",
+             f"{'steps':8s}" + "".join(f"{g:>16s}" for g in GROUPS)]
+    for kind in ("all", "cyclic", "start", "stop"):
+        if kind in report:
+            model, linear = report[kind]["model"], report[kind]["linear"]
+            lines.append(f"{kind:8s}" + "".join(f"{1000 * model[g]:8.1f} ({1000 * linear[g]:5.1f})" for g in GROUPS))
+    _emit(args, report, "\n".join(lines))
+    return 0
+
+
 def cmd_train(args) -> int:
     from cocomopl.jobs import train_model
 
@@ -263,7 +281,7 @@ def cmd_generate(args) -> int:
 
     _note_replacing(args.out, inputs=[args.model])
     payload = generate_walk_file(args.lengths_mm, args.out, args.model, args.dt, args.first_swing, args.strict,
-                                 args.command_line)
+                                 args.command_line, args.refine, args.data, progress=not args.json)
     for message in payload["warnings"]:
         _warn(message)
     rows = payload["steps"]
@@ -274,10 +292,31 @@ def cmd_generate(args) -> int:
     lines.append(f"upper body (the joints that carry no sole) corrected by up to {upper['largest_change_rad']:.3f} rad: "
                  f"torque {upper['torque_ratio_before']:.2f} -> {upper['torque_ratio_after']:.2f}, velocity "
                  f"{upper['velocity_ratio_before']:.2f} -> {upper['velocity_ratio_after']:.2f} of the limits")
+    if "refine" in payload:
+        lines += _refine_lines(payload["refine"])
     lines.append(f"wrote {payload['output']}: {len(rows)} steps, {payload['duration_s']:.2f} s of walking; generated in "
                  f"{payload['generation_s'] * 1e6:.0f} us, placed in the world in {payload['placement_s'] * 1e3:.0f} ms")
     _emit(args, payload, "\n".join(lines))
     return 0
+
+
+def _refine_lines(summary: dict) -> list[str]:
+    """The refinement's table: iterations and convergence per step, then the totals."""
+    lines = [f"{'refined step':24s} {'iterations':>10s}  converged"]
+    lines += [f"{step:24s} {n:10d}  {'yes' if ok else 'NO'}"
+              for step, n, ok in zip(summary["steps"], summary["iterations"], summary["converged"])]
+    lines.append(f"refined in {summary['refine_s']:.1f} s (median {summary['iterations_median']:g} iterations per step); "
+                 f"the generated walk's torque cost is {summary['raw_cost_ratio']:.3f} x the refined one's")
+    return lines
+
+
+def cmd_refine(args) -> int:
+    from cocomopl.jobs import refine_walk_file
+
+    _note_replacing(args.out or f"{Path(args.file).stem}-refined.h5", inputs=[p for p in (args.file, args.data) if p])
+    payload = refine_walk_file(args.file, args.motion, args.out, args.data, args.command_line, progress=not args.json)
+    _emit(args, payload, "\n".join([*_refine_lines(payload), f"wrote {payload['output']}"]))
+    return 0 if all(payload["converged"]) else 1
 
 
 def cmd_plot(args) -> int:
@@ -307,12 +346,14 @@ def cmd_walk(args) -> int:
     payload = walk_report(args.lengths_mm, out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
                           progress=not args.json, contact_time_constant=args.contact_time_constant_s,
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
-                          strict=args.strict, command=args.command_line)
+                          strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data)
     for message in payload["warnings"]:
         _warn(message)
     lengths = ",".join(f"{x:g}" for x in payload["lengths_mm"])
     lines = [f"walk {lengths} mm: {len(payload['steps'])} steps, generated in {payload['generation_s'] * 1e3:.2f} ms, "
-             f"simulated in MuJoCo ({'with' if payload['stabilizer'] else 'without'} stabilizer)",
+             + ("refined by optimal control, " if args.refine else "")
+             + f"simulated in MuJoCo ({'with' if payload['stabilizer'] else 'without'} stabilizer)",
+             *(_refine_lines(payload["refine"]) if args.refine else []),
              _metrics_table(payload),
              f"report in {out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
     _emit(args, payload, "\n".join(lines))
@@ -331,9 +372,11 @@ def cmd_reproduce(args) -> int:
     start, end = payload["window_s"]
     lines = [(f"every figure over the walking window {start:g} to {end:g} s; contact time constant "
               f"{1000 * payload['contact_time_constant_s']:g} ms, reference low-pass {payload['reference_cutoff_hz']:g} Hz"),
-             "Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_opt (OC), Kajita on M_gen's footsteps"]
+             "Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_gen refined by optimal control (refined), "
+             "M_opt (OC), Kajita on M_gen's footsteps"]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
-    lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.2f} %")
+    lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.2f} %; "
+                 f"refined vs OC: {100 * payload['refined_vs_oc']['mean_torque']['relative_difference']:+.2f} %")
     lines.append(f"{'simulated':9s} {'fell':>5s} {'peak F/W':>8s} {'var/sole':>8s} {'var sum':>8s} {'max dF/dt':>9s} "
                  f"{'knee mean':>9s} {'CoM mean':>8s} {'(range, m)':>13s} {'stabilizer D, K':>16s}")
     for name, m in payload["metrics"].items():
@@ -347,6 +390,10 @@ def cmd_reproduce(args) -> int:
         lower = [k for k, c in payload[f"mp_vs_{other.lower()}"].items() if c["lower"] == "MP"]
         higher = [k for k, c in payload[f"mp_vs_{other.lower()}"].items() if c["lower"] != "MP"]
         lines.append(f"MP lower than {other} in: {', '.join(lower) or 'none'}; higher in: {', '.join(higher) or 'none'}")
+    refined = payload["refine"]
+    lines.append(f"refined M_gen: {sum(refined['converged'])} of {len(refined['converged'])} steps converged, median "
+                 f"{refined['iterations_median']:g} iterations, {refined['refine_s']:.1f} s; M_gen's torque cost is "
+                 f"{refined['raw_cost_ratio']:.3f} x the refined walk's")
     kajita = payload["kajita"]
     lines.append(f"Kajita ({kajita['variant']}): CoM at {kajita['com_height_m']:.3f} m (pelvis {100 * kajita['pelvis_drop']:.1f} cm "
                  f"low{', searched' if kajita['pelvis_drop_searched'] else ''}), multibody ZMP "
@@ -472,6 +519,17 @@ def _dataset_parsers(sub) -> None:
     _json_option(check)
     check.set_defaults(func=cmd_dataset_check)
 
+    family = dataset.add_parser("family", help="solve steps between the trained lengths and measure how far they lie "
+                                "from the model's predictions and from linear interpolation, per joint group")
+    family.add_argument("file", nargs="?", metavar="FILE.h5", help="dataset HDF5 file (default: the bundled one)")
+    family.add_argument("--model", metavar="MODEL.npz", help="model trained on it (default: the bundled one)")
+    family.add_argument("--lengths-mm", type=_training_lengths_mm, metavar="MM,MM,...",
+                        help="step lengths in millimetres to solve at, strictly between the dataset's (default: the "
+                        "midpoints of its lengths)")
+    family.add_argument("--workers", type=_workers, metavar="N", help="local worker processes (default: one per core)")
+    _json_option(family)
+    family.set_defaults(func=cmd_dataset_family)
+
 
 def _primitives_parsers(sub) -> None:
     from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES
@@ -503,8 +561,26 @@ def _primitives_parsers(sub) -> None:
     generate = sub.add_parser("generate", help="synthesise a walk from step lengths with the primitives")
     _synthesis_options(generate)
     generate.add_argument("--out", default="cocomopl-walk.h5", metavar="FILE.h5", help="output motion HDF5 (default: %(default)s)")
+    _refine_options(generate)
     _json_option(generate)
     generate.set_defaults(func=cmd_generate)
+
+    refine = sub.add_parser("refine", help="make a generated walk optimal: each step warm-starts the OCP it was "
+                            "learned from")
+    refine.add_argument("file", metavar="MOTION.h5", help="a walk from 'cocomopl generate'")
+    refine.add_argument("--motion", metavar="NAME", help="motion name (needed when the file holds several)")
+    refine.add_argument("--data", metavar="DATASET.h5",
+                        help="OC dataset whose OCP settings the steps are solved with (default: the bundled one)")
+    refine.add_argument("--out", metavar="FILE.h5", help="refined motion HDF5 (default: <file>-refined.h5)")
+    _json_option(refine)
+    refine.set_defaults(func=cmd_refine)
+
+
+def _refine_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--refine", action="store_true",
+                        help="refine every generated step by the OCP it was learned from (docs/method.md#refinement)")
+    parser.add_argument("--data", metavar="DATASET.h5",
+                        help="with --refine: the OC dataset whose OCP settings are used (default: the bundled one)")
 
 
 def _simulation_parsers(sub) -> None:
@@ -513,6 +589,7 @@ def _simulation_parsers(sub) -> None:
     walk.add_argument("--out", default="cocomopl-walk", metavar="DIR", help="report folder (default: %(default)s)")
     walk.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
     walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
+    _refine_options(walk)
     _simulation_options(walk)
     _json_option(walk)
     walk.set_defaults(func=cmd_walk)

@@ -11,6 +11,7 @@ naming the problem.  ``command`` is recorded in the files' provenance (None: "Py
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -85,6 +86,60 @@ def check_dataset_file(path: str | Path | None = None, verbose: bool = False) ->
     if not verbose:
         report.pop("per_motion")
     return report
+
+
+def check_family_file(
+    path: str | Path | None = None,
+    model: str | Path | None = None,
+    lengths: list[float] | None = None,
+    workers: int | None = None,
+    progress: bool = False,
+) -> dict:
+    """The family check of a dataset (default: the bundled one) against a model trained on it
+    (default: the bundled one): its cyclic, start and stop steps solved at ``lengths`` (m;
+    default: the midpoints of the dataset's lengths) and compared with the model's predictions
+    and with the linear interpolation of the dataset's steps (:mod:`cocomopl.primitives.family`).
+    """
+    from tqdm import tqdm
+
+    from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
+    from cocomopl.dataset.generate import Executor, check_workers, length_job
+    from cocomopl.primitives.model_file import load_model
+    from cocomopl.primitives.training import load_training_steps
+
+    path, model = dataset_path(path), model_path(model)
+    training = load_training_steps(path)
+    _, attrs = read_motions(path, dataset=True)
+    primitives = load_model(model).prepare()
+    robot = load_robot(training.source["robot"])
+    if list(primitives.signal_names) != list(training.signal_names) or primitives.metadata_.get("robot", robot.name) != robot.name:
+        raise Error(f"{model} was not trained on {robot.name}'s signals, those of {path}")
+    trained = sorted({s.start_length for s in training.specs if s.kind == "cyclic"})
+    lengths = probe_lengths(trained) if lengths is None else sorted(set(lengths))
+    outside = [x for x in lengths if not trained[0] < x < trained[-1] or x in trained]
+    if outside:
+        raise Error(f"probe lengths must lie strictly between the dataset's lengths "
+                    f"({1000 * trained[0]:g} to {1000 * trained[-1]:g} mm, none of them): {', '.join(f'{1000 * x:g}' for x in outside)} mm")
+    workers = min(check_workers(workers) if workers else (os.cpu_count() or 1), len(lengths))
+    started = time.perf_counter()
+    executor = Executor(workers, None)
+    solved, failed = {}, []
+    try:
+        futures = [executor.submit(length_job, robot.name, attrs["settings"], L, ["cyclic", "start", "stop"])
+                   for L in lengths]
+        for future in tqdm(executor.as_completed(futures), total=len(futures), desc="probe lengths solved",
+                           disable=not progress):
+            result = executor.result(future)
+            solved.update(result.motions)
+            failed += list(result.failed)
+    finally:
+        executor.close()
+    if not solved:
+        raise Error(f"no probe step converged ({', '.join(failed)})")
+    probes = probe_steps(robot, solved, training.source)
+    errors = family_errors(primitives, probes, training, signal_group_indices(robot, training.signal_names))
+    return {"dataset": str(path), "model": str(model), "lengths_mm": [1000 * x for x in lengths],
+            "solved": len(solved), "failed": sorted(failed), "solve_s": time.perf_counter() - started, **errors}
 
 
 # ---------------------------------------------------------------------------- stage 2
@@ -174,30 +229,64 @@ def generate_walk_file(
     first_swing: str = "left",
     strict: bool = False,
     command: str | None = None,
+    refine_steps: bool = False,
+    dataset: str | Path | None = None,
+    progress: bool = False,
 ) -> dict:
     """Generate the walk of step ``lengths`` (m, start ... stop) with the primitives and
-    write it as one motion to ``out`` (HDF5).
+    write it as one motion to ``out`` (HDF5); with ``refine_steps``, the walk refined by the
+    OCPs of ``dataset`` (default: the bundled one; :func:`cocomopl.pipeline.refine`).
 
     Returns per step its duration, uncertainty and training support, the timings, the
-    dynamics filter's error left, the upper-body correction, and ``warnings``.
+    dynamics filter's error left, the upper-body correction, ``warnings``, and with
+    ``refine_steps`` the refinement's summary as ``refine``.
     """
-    from cocomopl.pipeline import generate_walk, walk_provenance
+    from cocomopl.pipeline import generate_walk, refine, walk_provenance
     from cocomopl.synthesis.step_chain import joint_std_max
 
     model = model_path(model)
-    out = output_file(out, "motion.h5", inputs=[model])
+    dataset = dataset_path(dataset) if refine_steps else None
+    out = output_file(out, "motion.h5", inputs=[model] + ([dataset] if dataset else []))
     walk = generate_walk(lengths, model, dt, first_swing, strict)
-    motion = walk.motion
-    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": "primitives",
-                                               **walk_provenance(command, model)})
+    motion, refined = walk.motion, None
+    if refine_steps:
+        refined_walk, refined = refine(motion, dataset, progress)
+        motion = refined_walk.motion
+    provenance = walk_provenance(command, model, dataset=dataset)
+    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": motion.meta["producer"], **provenance})
     rows = [{"step": s.spec.name, "duration_s": s.duration, "duration_std_s": float(np.linalg.norm(s.duration_std)),
              "joint_std_max_rad": joint_std_max(walk.model, s), "in_support": bool(s.in_support),
              "distance_mm": 1000 * s.distance} for s in walk.steps]
-    return {"output": str(out), "steps": rows, "n_steps": len(rows), "duration_s": motion.duration,
-            "generation_s": walk.generation_s, "placement_s": walk.placement_s,
-            "dynamics_filter_zmp_error_m": motion.meta["plan_zmp_error_m"],
-            "upper_body_limits": motion.meta["upper_body_limits"],
-            "out_of_support": [r["step"] for r in rows if not r["in_support"]], "warnings": walk.warnings}
+    payload = {"output": str(out), "steps": rows, "n_steps": len(rows), "duration_s": motion.duration,
+               "generation_s": walk.generation_s, "placement_s": walk.placement_s,
+               "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
+               "upper_body_limits": walk.motion.meta["upper_body_limits"],
+               "out_of_support": [r["step"] for r in rows if not r["in_support"]], "warnings": walk.warnings}
+    return payload | ({"refine": refined} if refined else {})
+
+
+def refine_walk_file(
+    path: str | Path,
+    motion_name: str | None = None,
+    out: str | Path | None = None,
+    dataset: str | Path | None = None,
+    command: str | None = None,
+    progress: bool = False,
+) -> dict:
+    """Refine a generated walk of a file by the OCPs of ``dataset`` (default: the bundled one)
+    and write the refined walk to ``out`` (default: ``<file>-refined.h5``).
+
+    Returns the summary of :func:`cocomopl.pipeline.refine`.
+    """
+    from cocomopl.pipeline import refine
+
+    walk = read_motion(path, motion_name)
+    dataset = dataset_path(dataset)
+    out = output_file(out or f"{Path(path).stem}-refined.h5", "motion.h5", inputs=[path, dataset])
+    refined, summary = refine(walk, dataset, progress)
+    write_motions(out, {refined.motion.name: refined.motion},
+                  {"robot": walk.robot, "producer": "ocp", **stamp(command, ("crocoddyl", "pin"), walk=path, dataset=dataset)})
+    return {"output": str(out), **summary}
 
 
 # ---------------------------------------------------------------------------- stage 3 and tools

@@ -98,6 +98,40 @@ def generate_walk(
     return GeneratedWalk(robot, model, motion, steps, generation_s, placement_s, messages)
 
 
+def refine(motion: Motion, dataset_path: str | Path | None = None, progress: bool = False):
+    """Refine a generated walk by the OCPs of the dataset it was learned from (by default the
+    bundled one; :func:`cocomopl.ocp.refine.refine_walk`).
+
+    Returns the :class:`~cocomopl.ocp.refine.RefinedWalk` and its summary: per step the
+    solver's ``iterations`` and whether it ``converged``, ``iterations_median``, ``refine_s``
+    and ``raw_cost_ratio``, the torque cost ∫Στ²dt of the generated walk as placed over the
+    refined walk's.
+    """
+    import statistics
+
+    from cocomopl.motion_file import load_robot, read_motions
+    from cocomopl.ocp.refine import check_refinable, refine_walk, torque_cost
+    from cocomopl.ocp.settings import OCPSettings
+
+    dataset_path = bundled_dataset_path(dataset_path)
+    dataset, attrs = read_motions(dataset_path, dataset=True)
+    robot = load_robot(next(iter(dataset.values())).robot)
+    check_refinable(motion, robot)
+    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress=progress)
+    iterations = [row["iterations"] for row in refined.steps]
+    summary = {
+        "steps": [row["step"] for row in refined.steps],
+        "iterations": iterations,
+        "converged": [row["converged"] for row in refined.steps],
+        "cost": [row["cost"] for row in refined.steps],
+        "iterations_median": statistics.median(iterations),
+        "refine_s": refined.refine_s,
+        "raw_cost_ratio": torque_cost(motion) / torque_cost(refined.motion),
+        "dataset": Path(dataset_path).name,
+    }
+    return refined, summary
+
+
 def walk_provenance(command: str | None, model_path: str | Path | None = None, **inputs) -> dict:
     """The provenance of a file made from a generated walk: who made it, when, and the
     model's (and any other input's) name and checksum."""
@@ -165,9 +199,14 @@ def walk_report(
     first_swing: str = "left",
     strict: bool = False,
     command: str | None = None,
+    refine_steps: bool = False,
+    dataset: str | Path | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
+    With ``refine_steps`` the generated walk is refined by the OCPs of ``dataset`` (default:
+    the bundled one; :func:`refine`) and the refined walk is simulated; the summary is
+    ``refine`` in the report.
     ``out_dir`` receives ``motions.h5`` (the generated and the measured motion),
     ``metrics.json``, comparison plots (ZMP, contact forces, knee torques, leg joints),
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
@@ -181,14 +220,20 @@ def walk_report(
     from cocomopl.motion_file import report_folder, write_json, write_motions
 
     started = time.perf_counter()
-    provenance = walk_provenance(command, model_path)  # a missing model is refused before anything is written
-    with report_folder(out_dir, inputs=[bundled_model_path(model_path)]) as work:
+    dataset = bundled_dataset_path(dataset) if refine_steps else None
+    # missing inputs are refused before anything is written
+    provenance = walk_provenance(command, model_path, dataset=dataset)
+    with report_folder(out_dir, inputs=[bundled_model_path(model_path)] + ([dataset] if dataset else [])) as work:
         walk = generate_walk(lengths, model_path, dt, first_swing, strict)
+        planned, refined = {"generated": walk.motion}, None
+        if refine_steps:
+            refined_walk, refined = refine(walk.motion, dataset, progress)
+            planned["refined"] = refined_walk.motion
         rollout, metrics = simulate_walk(
-            walk.robot, walk.motion, stabilizer, work / "walk.mp4" if video else None, progress,
-            contact_time_constant, reference_cutoff_hz,
+            walk.robot, planned["refined" if refine_steps else "generated"], stabilizer,
+            work / "walk.mp4" if video else None, progress, contact_time_constant, reference_cutoff_hz,
         )
-        motions = {"generated": walk.motion, "simulated": rollout.measured}
+        motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
         files += plot_comparison(walk.robot, motions, work)
@@ -208,6 +253,7 @@ def walk_report(
             "placement_s": walk.placement_s,
             "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
             "warnings": walk.warnings,
+            **({"refine": refined} if refined else {}),
             "files": _report_files(out_dir, files, "metrics.json"),
             "provenance": provenance,
         }
@@ -239,10 +285,10 @@ def reproduce_report(
     command: str | None = None,
     kajita_variant: str = "two-stage",
 ) -> dict:
-    """The paper's experiment (sec. V): M_gen from the primitives, M_opt from chained OCPs
-    (the steps of the dataset at ``dataset_path``, and the transitions it lacks solved here)
-    and the Kajita baseline (``kajita_variant``, :func:`kajita_for`) on M_gen's footsteps and
-    timing, all three simulated with the stabilizer tuned for their generator and measured
+    """The paper's experiment (sec. V): M_gen from the primitives, M_gen refined by the OCPs
+    of the dataset at ``dataset_path`` (:func:`refine`), M_opt from chained OCPs (that
+    dataset's steps, and the transitions it lacks solved here) and the Kajita baseline (``kajita_variant``, :func:`kajita_for`) on M_gen's footsteps and
+    timing, all four simulated with the stabilizer tuned for their generator and measured
     over the same walking window (:mod:`cocomopl.analysis.comparison`); the analogue of
     Table I (mean torques) and of Figs. 6, 8 and 9.
 
@@ -321,8 +367,8 @@ def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool =
 
 def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_time_constant: float | None,
                       reference_cutoff_hz: float | None, kajita_variant: str = "two-stage") -> tuple[Robot, dict, dict, dict]:
-    """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "OC",
-    "Kajita") and the summary without provenance, files and wall time."""
+    """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "refined"
+    (M_gen refined by optimal control), "OC", "Kajita") and the summary without provenance, files and wall time."""
     from cocomopl.analysis.comparison import per_measure
     from cocomopl.motion_file import load_robot, read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
@@ -336,12 +382,13 @@ def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_ti
     solve_started = time.perf_counter()
     m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
+    refined, refine_summary = refine(walk.motion, dataset_path, progress)
     kajita = kajita_for(walk, kajita_variant)
-    planned = {"MP": walk.motion, "OC": m_opt, "Kajita": kajita}
+    planned = {"MP": walk.motion, "refined": refined.motion, "OC": m_opt, "Kajita": kajita}
     simulated, figures, window = simulate_compared(robot, planned, progress, contact_time_constant, reference_cutoff_hz)
     table = {}
     for name, label in (("OC", "OC planned (joint torques)"), ("MP", "MP planned (inverse dynamics)"),
-                        ("Kajita", "Kajita planned (inverse dynamics)")):
+                        ("refined", "refined planned (joint torques)"), ("Kajita", "Kajita planned (inverse dynamics)")):
         table[label] = figures[name]["planned"]["mean_torque"]
         table[f"{name} simulated"] = figures[name]["mean_torque"]
     payload = {
@@ -350,6 +397,8 @@ def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_ti
         "mp_vs_oc_simulated_mean_torque_difference": table["MP simulated"] / table["OC simulated"] - 1,
         "mp_vs_oc": per_measure(figures, "MP", "OC"),
         "mp_vs_kajita": per_measure(figures, "MP", "Kajita"),
+        "refined_vs_oc": per_measure(figures, "refined", "OC"),
+        "refine": refine_summary,
         "metrics": figures,
         "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
         "reference_cutoff_hz": simulated["MP"].meta["reference_cutoff_hz"],

@@ -152,7 +152,7 @@ def test_an_interrupted_run_keeps_its_parts_but_no_empty_folder(tmp_path, small_
     def interrupt(*args):
         raise stop
 
-    monkeypatch.setattr(module._Executor, "submit", interrupt)
+    monkeypatch.setattr(module.Executor, "submit", interrupt)
     out, parts = tmp_path / "d.h5", tmp_path / "d.h5.parts"
     if saved:
         solved, _ = read_motions(small_dataset)

@@ -101,10 +101,10 @@ def check_reproduce_report(payload: dict, out: Path) -> None:
     assert payload == json.loads((out / "table1.json").read_text())
     table = payload["table1_mean_torque"]
     start, end = payload["window_s"]
-    for method in ("OC", "MP", "Kajita"):
+    for method in ("OC", "MP", "refined", "Kajita"):
         figures = payload["metrics"][method]
         assert table[f"{method} simulated"] == figures["mean_torque"] > 0
-        assert not figures["fell"]  # the bundled M_gen, M_opt and Kajita walks stand
+        assert not figures["fell"]  # the bundled M_gen, refined M_gen, M_opt and Kajita walks stand
         assert figures["duration_s"] == pytest.approx(end - start, abs=0.01)  # one window for every walk
         assert figures["stabilizer_gains"]["ankle_damping"] > 0
         assert 0 < figures["knee_angle_min_rad"] <= figures["knee_angle_mean_rad"] <= figures["knee_angle_max_rad"]
@@ -115,6 +115,8 @@ def check_reproduce_report(payload: dict, out: Path) -> None:
     # docs/results.md: MP within 5 % of OC's simulated torque and below Kajita's
     assert abs(payload["mp_vs_oc_simulated_mean_torque_difference"]) < 0.05
     assert payload["mp_vs_kajita"]["mean_torque"]["lower"] == "MP"
+    # every refined step converged, and the refined plan costs less torque than the generated one
+    assert all(payload["refine"]["converged"]) and payload["refine"]["raw_cost_ratio"] > 1
     # the two-stage baseline: the second stage takes out most of the cart-table's error
     kajita = payload["kajita"]
     assert kajita["variant"] == "two-stage" and kajita["second_stage"] and kajita["pelvis_drop_searched"]
@@ -123,5 +125,5 @@ def check_reproduce_report(payload: dict, out: Path) -> None:
     assert payload["m_opt_steps"] == 9 and payload["m_opt_solved_now"] == []
     assert payload["provenance"]["inputs"]["dataset"]["name"] == "dataset.h5"
     with h5py.File(out / "motions.h5") as f:
-        assert set(f["motions"]) == {f"{m}_{kind}" for m in ("MP", "OC", "Kajita") for kind in ("planned", "simulated")}
+        assert set(f["motions"]) == {f"{m}_{kind}" for m in ("MP", "refined", "OC", "Kajita") for kind in ("planned", "simulated")}
     assert {"zmp_comparison.png", "force_comparison.png", "knee_torque_comparison.png"} <= {p.name for p in out.iterdir()}

@@ -56,21 +56,24 @@ class JobResult:
 
     motions: dict = field(default_factory=dict)
     failed: dict = field(default_factory=dict)
+    walk: np.ndarray | None = None  # a length job's warm-up walk (states): the next length continues from it
 
 
 def length_job(
-    robot_name: str, settings: dict, length: float, kinds: list[str], cyclic: Motion | None = None
+    robot_name: str, settings: dict, length: float, kinds: list[str], cyclic: Motion | None = None,
+    walk_guess: np.ndarray | None = None,
 ) -> JobResult:
     """The ``kinds`` among cyclic, start and stop steps of one length (runs in a worker:
-    plain data in and out).  An already solved ``cyclic`` step fixes the start state."""
+    plain data in and out).  An already solved ``cyclic`` step fixes the start state;
+    ``walk_guess``, the warm-up walk of a neighbouring length, warm-starts this length's."""
     robot = Robot(robot_name)
-    opts = OCPSettings(**settings)
+    opts = OCPSettings.from_saved(settings)
     start_state = None
     if cyclic is not None:  # resumed: the solved cyclic step fixes S(L) and the timing
         start_state = np.concatenate([cyclic.q[0], cyclic.v[0]])
         opts = replace(opts, **phase_durations(cyclic))
-    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state)
-    result = JobResult()
+    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state, walk_guess)
+    result = JobResult(walk=info.get("walk"))
     for kind, solution in solutions.items():
         spec = length_steps(length)[kind]
         if solution is None:
@@ -87,7 +90,7 @@ def transition_job(
 ) -> JobResult:
     """A transition step (runs in a worker: plain data in and out); see
     :func:`~cocomopl.ocp.solve.solve_transition`."""
-    motion, attempts = solve_transition(Robot(robot_source), OCPSettings(**settings), spec, cyclic_from, cyclic_to)
+    motion, attempts = solve_transition(Robot(robot_source), OCPSettings.from_saved(settings), spec, cyclic_from, cyclic_to)
     if motion is None:
         return JobResult(failed={spec.name: attempts})
     return JobResult(motions={spec: motion})
@@ -233,7 +236,7 @@ def _working_folder(parts: Path, output: Path):
         raise
 
 
-class _Executor:
+class Executor:
     """Local process pool or Dask client behind one submit/as_completed interface."""
 
     def __init__(self, workers: int, scheduler: str | None):
@@ -322,7 +325,7 @@ def generate(
     parts = output.with_name(output.name + ".parts")
     workers = check_workers(workers or max(1, min(len(lengths), os.cpu_count() or 1)))
     specs = training_specs(lengths, extra_transitions)
-    executor = _Executor(workers, scheduler)  # an unreachable cluster is refused before anything is written
+    executor = Executor(workers, scheduler)  # an unreachable cluster is refused before anything is written
     try:
         with _working_folder(parts, output):
             attrs = part_attrs(settings, robot)
@@ -331,7 +334,8 @@ def generate(
             reused = len(done)
             start = time.perf_counter()
             where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
-            failed = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where, progress)
+            failed, continuation = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
+                                                  progress)
             wall = time.perf_counter() - start
             if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
                 raise Error(
@@ -341,6 +345,7 @@ def generate(
             run = {"lengths_m": list(lengths), "extra_transitions_m": [list(pair) for pair in extra_transitions],
                    "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
                    "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
+                   "continuation": continuation,
                    "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes"}
             motions = _write_dataset(output, robot, specs, done, run)
     finally:
@@ -359,7 +364,7 @@ def generate(
 
 
 def _solve_missing(
-    executor: _Executor,
+    executor: Executor,
     robot_name: str,
     settings: OCPSettings,
     specs: list[StepSpec],
@@ -368,9 +373,11 @@ def _solve_missing(
     attrs: dict,
     where: str,
     progress: bool,
-) -> dict[str, list]:
+) -> tuple[dict[str, list], dict]:
     """Solve the ``specs`` not in ``done``, adding each converged one to ``done`` and saving
-    it at once in ``parts`` (with ``attrs``).  Returns the attempts of those that failed."""
+    it at once in ``parts`` (with ``attrs``): the lengths' steps by continuation
+    (:func:`_solve_by_continuation`), then the transitions.  Returns the attempts of those
+    that failed and the continuation's record."""
     from tqdm import tqdm
 
     failed: dict[str, list] = {}
@@ -383,31 +390,31 @@ def _solve_missing(
         if progress:
             bar.write(line, file=sys.stderr)
 
+    def collect_one(result: JobResult) -> None:
+        for spec, motion in result.motions.items():
+            write_part(parts, spec, motion, attrs)
+            done[spec] = motion
+            solver = motion.meta["solver"]
+            note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
+            bar.update(1)
+        for name, attempts in result.failed.items():
+            failed[name] = attempts
+            note(f"did not converge: {name} after {len(attempts)} attempts")
+            bar.update(1)
+
     def collect(futures) -> None:
         for future in executor.as_completed(list(futures)):
-            result: JobResult = executor.result(future)
-            for spec, motion in result.motions.items():
-                write_part(parts, spec, motion, attrs)
-                done[spec] = motion
-                solver = motion.meta["solver"]
-                note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
-                bar.update(1)
-            for name, attempts in result.failed.items():
-                failed[name] = attempts
-                note(f"did not converge: {name} after {len(attempts)} attempts")
-                bar.update(1)
+            collect_one(executor.result(future))
 
     try:
         # lengths first: every transition starts and ends in a cyclic step's start state
-        lengths = [s.start_length for s in specs if s.kind == "cyclic"]  # one per length, in the plan's order
-        futures = {}
-        for L in lengths:
+        todo = {}
+        for L in [s.start_length for s in specs if s.kind == "cyclic"]:  # one per length
             missing = [s.kind for s in specs if s.kind != "transition" and L in (s.start_length, s.end_length)
                        and s not in done]
             if missing:
-                cyclic = done.get(StepSpec("cyclic", L, L))
-                futures[executor.submit(length_job, robot_name, settings.as_dict(), L, missing, cyclic)] = L
-        collect(futures)
+                todo[L] = missing
+        record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one)
         cyclic = {s.start_length: m for s, m in done.items() if s.kind == "cyclic"}
         futures = {}
         for spec in specs:
@@ -422,7 +429,62 @@ def _solve_missing(
         collect(futures)
     finally:
         bar.close()
-    return failed
+    return failed, record
+
+
+SWEEPS = ("ascending", "descending")
+
+
+def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[float, list[str]],
+                           done: dict[StepSpec, Motion], collect) -> dict:
+    """Solve the missing ``todo[L]`` kinds of each length by continuation, and pass each length's
+    chosen result to ``collect``.
+
+    Two sweeps run side by side, one up the lengths and one down, each length's warm-up walk
+    (whose second cyclic step gives ``S(L)`` and whose steps warm-start the length's OCPs)
+    warm-started from the walk of the length solved before it in the same sweep, so that
+    neighbours stay on one solution branch.  Where the sweeps disagree, the length takes the
+    sweep whose OCPs converged more often, then the lower summed cost.  Returns, per length
+    (mm), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
+    and the sweep chosen.
+    """
+    order = sorted(todo)
+    chains = {sweep: order if sweep == "ascending" else order[::-1] for sweep in SWEEPS[: 1 if len(order) < 2 else 2]}
+    results: dict[float, dict[str, JobResult]] = {L: {} for L in order}
+    pending = {}
+
+    def submit(sweep: str, i: int, walk: np.ndarray | None) -> None:
+        L = chains[sweep][i]
+        cyclic = done.get(StepSpec("cyclic", L, L))
+        pending[executor.submit(length_job, robot_name, settings.as_dict(), L, todo[L], cyclic, walk)] = (sweep, i)
+
+    for sweep in chains:
+        submit(sweep, 0, None)
+    record = {}
+    while pending:
+        future = next(iter(executor.as_completed(list(pending))))
+        sweep, i = pending.pop(future)
+        L = chains[sweep][i]
+        results[L][sweep] = executor.result(future)
+        if i + 1 < len(order):
+            submit(sweep, i + 1, results[L][sweep].walk)
+        if len(results[L]) == len(chains):
+            chosen, record[f"{1000 * L:g}"] = _choose_branch(results[L])
+            collect(results[L][chosen])
+    return record
+
+
+def _choose_branch(by_sweep: dict[str, JobResult]) -> tuple[str, dict]:
+    """The sweep whose result a length keeps (see :func:`_solve_by_continuation`) and the record."""
+    def cost(result: JobResult) -> float:
+        return sum(m.meta["solver"]["cost"] for m in result.motions.values())
+
+    chosen = min(by_sweep, key=lambda sweep: (-len(by_sweep[sweep].motions), cost(by_sweep[sweep])))
+    record = {"chosen": chosen, **{f"{sweep}_cost": cost(result) for sweep, result in by_sweep.items()}}
+    cyclic = [next((m for s, m in r.motions.items() if s.kind == "cyclic"), None) for r in by_sweep.values()]
+    if len(cyclic) == 2 and None not in cyclic:
+        record["cyclic_joint_difference_rad"] = float(np.sqrt(((cyclic[0].q[:, 7:] - cyclic[1].q[:, 7:]) ** 2).mean()))
+    return chosen, record
 
 
 def _write_dataset(output: Path, robot: Robot, specs: list[StepSpec], done: dict[StepSpec, Motion], run: dict) -> int:

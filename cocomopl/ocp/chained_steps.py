@@ -39,7 +39,7 @@ def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], 
         if right.kind != "transition" or missing:
             raise Error(f"cannot solve {spec.name}: the dataset has no {', '.join(missing) or right.name}")
         solved, attempts = solve_transition(
-            robot, OCPSettings(**settings), right, motions[cyclic[right.start_length]], motions[cyclic[right.end_length]]
+            robot, OCPSettings.from_saved(settings), right, motions[cyclic[right.start_length]], motions[cyclic[right.end_length]]
         )
         if solved is None:
             raise Error(f"the OCP of {right.name} did not converge: {attempts}")

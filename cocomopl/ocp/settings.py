@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
+
+from cocomopl.errors import Error
 
 
 @dataclass(frozen=True)
@@ -32,6 +34,13 @@ class OCPSettings:
     w_torque: float = 1e-2
     w_torque_rate: float = 5e-5  # on the torque rate, (N m / s)^2 s; 0 switches it off
     w_posture: float = 1.0
+    # on the joints that carry no sole (torso, arms, head), in place of w_posture: the torque
+    # cost leaves them nearly free (at 1, two initial guesses of the 150 mm start step ended
+    # 24 mrad RMS apart in the upper body at equal cost), and neighbouring OCPs then find them
+    # on other branches.  3 is the least weight tried (1, 2, 3, 5, 10, 100) at which both
+    # guesses of the 150 mm start and stop steps agree within 1 mrad; it costs 7-11 % more
+    # leg torque squared there (docs/method.md#a-unique-upper-body)
+    w_upper_posture: float = 3.0
     w_velocity: float = 1e-1
     w_constraint: float = 1e4
     w_limits: float = 1e5
@@ -58,3 +67,15 @@ class OCPSettings:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+    @classmethod
+    def from_saved(cls, saved: dict) -> OCPSettings:
+        """The settings a dataset or part file records (``as_dict`` read back), as they were
+        solved with: a weight added since then takes the value it had before it existed."""
+        unknown = sorted(set(saved) - {f.name for f in fields(cls)})
+        if unknown:
+            raise Error(f"the OCP settings name {', '.join(unknown)}, which this cocomopl does not know")
+        # before w_upper_posture, the upper body had the legs' posture weight
+        saved = {"w_upper_posture": saved.get("w_posture", cls.w_posture), **saved}
+        values = {k: tuple(v) if isinstance(v, list) else v for k, v in saved.items()}
+        return cls(**values)

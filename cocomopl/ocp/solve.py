@@ -50,6 +50,39 @@ class Solution:
     stats: dict = field(default_factory=dict)
 
 
+def initial_states(robot: Robot, plan: StepPlan, settings: OCPSettings, guess: str | list[np.ndarray]) -> list[np.ndarray]:
+    """The initial state trajectory ``guess`` names: ``"kinematic"`` (feet on their paths by
+    inverse kinematics), ``"static"`` (the initial state held), or the states themselves."""
+    if not isinstance(guess, str):
+        xs = [np.asarray(x) for x in guess]
+    elif guess == "kinematic":
+        xs = initial_guess(robot, plan.phases, plan.x0, settings)
+    elif guess == "static":
+        xs = [plan.x0] * (sum(1 if p.kind == "impact" else p.knots for p in plan.phases) + 1)
+    else:
+        raise ValueError(f"unknown initial guess {guess!r}")
+    xs[0] = plan.x0
+    return xs
+
+
+def prepared_problem(
+    robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list[np.ndarray], us: list[np.ndarray] | None = None
+) -> tuple[crocoddyl.ShootingProblem, crocoddyl.SolverBoxFDDP, list[np.ndarray], list[np.ndarray]]:
+    """The plan's problem, its box-FDDP solver (torque limits are hard bounds) and the initial
+    guess in the solver's state: states ``xs`` and controls ``us`` (None: quasi-static)."""
+    problem = build_problem(robot, plan, settings)
+    quasi_static = problem.quasiStatic(xs[:-1]) if us is None else None
+    us = quasi_static if us is None else [np.asarray(u) for u in us]
+    solver_problem = problem
+    if settings.w_torque_rate > 0:
+        # the torque before the first knot: holding the initial state quasi-statically
+        tau0 = quasi_static[0] if quasi_static is not None else problem.runningModels[0].quasiStatic(
+            problem.runningDatas[0], plan.x0)
+        solver_problem = with_torque_rate(problem, tau0, settings.w_torque_rate / settings.dt)
+        xs = _with_previous_torques(xs, us, tau0)
+    return problem, crocoddyl.SolverBoxFDDP(solver_problem), xs, us
+
+
 def solve_plan(
     robot: Robot,
     plan: StepPlan,
@@ -57,31 +90,10 @@ def solve_plan(
     guess: str | list[np.ndarray] = "kinematic",
     max_iterations: int | None = None,
 ) -> Solution:
-    """Solve one plan with Crocoddyl's box-constrained FDDP (torque limits are hard bounds).
-
-    ``guess`` is the initial state trajectory: ``"kinematic"`` (feet on their paths by
-    inverse kinematics), ``"static"`` (the initial state held) or explicit states.
-    """
-    problem = build_problem(robot, plan, settings)
-    if isinstance(guess, str):
-        if guess not in ("kinematic", "static"):
-            raise ValueError(f"unknown initial guess {guess!r}")
-        if guess == "kinematic":
-            xs_init = initial_guess(robot, plan.phases, plan.x0, settings)
-        else:
-            xs_init = [plan.x0] * (problem.T + 1)
-    else:
-        xs_init = [np.asarray(x) for x in guess]
-    xs_init[0] = plan.x0
-    us_init = problem.quasiStatic(xs_init[:-1])
-    nx = problem.runningModels[0].state.nx
-    smoothed = problem
-    if settings.w_torque_rate > 0:
-        # the torque before the first knot: holding the initial state quasi-statically
-        tau0 = us_init[0]
-        smoothed = with_torque_rate(problem, tau0, settings.w_torque_rate / settings.dt)
-        xs_init = _with_previous_torques(xs_init, us_init, tau0)
-    solver = crocoddyl.SolverBoxFDDP(smoothed)
+    """Solve one plan with Crocoddyl's box-constrained FDDP from the initial states ``guess``
+    (:func:`initial_states`) and quasi-static controls."""
+    xs_init = initial_states(robot, plan, settings, guess)
+    problem, solver, xs_init, us_init = prepared_problem(robot, plan, settings, xs_init)
     budget = max_iterations or settings.max_iterations
     start = time.perf_counter()
     iterations, converged, previous_cost = 0, False, np.inf
@@ -97,15 +109,20 @@ def solve_plan(
         previous_cost = solver.cost
         if solver.iter == 0:
             break
-    elapsed = time.perf_counter() - start
     stats = {
         "iterations": iterations,
         "cost": float(solver.cost),
         "feasibility": float(solver.ffeas),
         "stop": float(solver.stop),
         "converged": bool(converged),
-        "solve_time_s": elapsed,
+        "solve_time_s": time.perf_counter() - start,
     }
+    return solution_of(problem, solver, plan, stats)
+
+
+def solution_of(problem: crocoddyl.ShootingProblem, solver, plan: StepPlan, stats: dict) -> Solution:
+    """The :class:`Solution` a solver reached on ``problem`` (without the torque-rate states)."""
+    nx = problem.runningModels[0].state.nx
     xs = np.array(solver.xs)[:, :nx]
     # the datas hold the last line-search trial; evaluate the accepted trajectory again
     problem.calc(list(xs), list(solver.us))
@@ -132,13 +149,14 @@ def _with_previous_torques(xs: list[np.ndarray], us: list[np.ndarray], tau0: np.
 WALK_STEPS = {"start": [0], "cyclic": [2], "stop": [3, 4, 5]}  # double-support phases of each spec
 
 
-def warm_up_walk(robot: Robot, length: float, settings: OCPSettings) -> Solution:
+def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.ndarray | None = None) -> Solution:
     """A short walk at one step length -- start, two cyclic steps, stop -- from rest to rest.
 
     A single cyclic step cannot be solved for its own start state with a DDP solver, whose
     initial state is fixed; a walk settles into its gait by the second cyclic step, whose
     start is the cyclic state ``S(L)``.  The walk's steps also warm-start the single-step
-    OCPs of the same length.
+    OCPs of the same length.  ``guess``: the states of a solved walk of a neighbouring length
+    with the same phase timing (continuation); None starts from the kinematic guess.
     """
     separation = foot_separation(robot)
     x_rest = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
@@ -153,7 +171,9 @@ def warm_up_walk(robot: Robot, length: float, settings: OCPSettings) -> Solution
     x_end = robot.state_from_posture(double_support_posture(robot, (end_x, separation), (end_x, 0.0)))
     # the walk only needs to settle into its gait, not to converge tightly
     plan = StepPlan(specs[0], phases, x_rest, x_end)
-    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), max_iterations=WALK_ITERATIONS)
+    knots = sum(1 if p.kind == "impact" else p.knots for p in phases) + 1
+    start = list(guess) if guess is not None and len(guess) == knots else "kinematic"
+    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, max_iterations=WALK_ITERATIONS)
 
 
 def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
@@ -238,6 +258,7 @@ def solve_length(
     settings: OCPSettings,
     kinds: tuple[str, ...] = ("cyclic", "start", "stop"),
     cyclic_start: np.ndarray | None = None,
+    walk_guess: np.ndarray | None = None,
 ) -> tuple[dict[str, Solution | None], dict]:
     """The cyclic, start and stop steps of one length, and the cyclic start state ``S(L)``.
 
@@ -246,10 +267,12 @@ def solve_length(
     ``settings.ss_duration`` in steps of ``settings.ss_search_step``), and the cyclic step
     of least cost (eq. 1 plus penalties) fixes the timing of this length's start and stop
     steps too.  ``cyclic_start`` is ``S(L)`` when the cyclic
-    step is already solved (its timing is then that of ``settings``).
+    step is already solved (its timing is then that of ``settings``).  ``walk_guess`` warm-starts
+    the warm-up walk (:func:`warm_up_walk`): continuation from a neighbouring length.
 
     Returns ``({kind: solution or None}, info)`` with ``info`` holding ``start_state``,
-    ``durations`` (double, single support; s), ``duration_search`` and ``attempts``.
+    ``durations`` (double, single support; s), ``duration_search``, ``attempts`` and ``walk``
+    (the warm-up walk's states, to continue from).
     """
     spec_of = length_steps(length)
     solutions, attempts, search = {}, {}, []
@@ -261,7 +284,7 @@ def solve_length(
             ss = round(ss, 6)
             if ss not in tried:
                 opts = replace(settings, ss_duration=ss)
-                walk = warm_up_walk(robot, length, opts)
+                walk = warm_up_walk(robot, length, opts, walk_guess)
                 segment = walk_segment(robot, walk, "cyclic")
                 x0 = segment[0]
                 guesses = [segment, "kinematic", "static"]
@@ -276,7 +299,7 @@ def solve_length(
             return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
         solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
     else:
-        walk = warm_up_walk(robot, length, settings)
+        walk = warm_up_walk(robot, length, settings, walk_guess)
     states = {length: cyclic_start}
     for kind in kinds:
         if kind == "cyclic":
@@ -288,6 +311,7 @@ def solve_length(
         "durations": (settings.ds_duration, settings.ss_duration),
         "duration_search": search,
         "attempts": attempts,
+        "walk": walk.xs,
     }
     return solutions, info
 

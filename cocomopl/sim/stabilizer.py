@@ -81,10 +81,10 @@ class StabilizerGains:
 # Per walk generator (the motion's ``meta["producer"]``), the gains tuned on three sequences
 # that no reported figure uses (benchmarks/stabilizer_tuning.py, docs/results.md#stabilizer-tuning).
 # A setting replaces the standing D = 3000, K = 2 only if it lowers the generator's mean peak
-# force by more than 0.01 x weight: the primitives' walk does so at D = 300, K = 1 (by 0.012);
-# the OC and Kajita walks do not (and D = 300 raises Kajita's peak to 1.2).
+# force by more than 0.01 x weight.  With the bundled model none does (MP: 0.002 at K = 3);
+# the previous model's MP walk took D = 300, K = 1 (0.012).
 TUNED_GAINS = {
-    "primitives": StabilizerGains(ankle_damping=300.0, dcm_gain=1.0),
+    "primitives": StabilizerGains(),
     "ocp": StabilizerGains(),
     "kajita": StabilizerGains(),
 }

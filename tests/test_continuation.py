@@ -1,0 +1,90 @@
+"""Dataset generation's bookkeeping.  Continuation: each length's walk warm-starts the next in its sweep,
+and each length keeps the better of the two sweeps.  The solver is replaced by a stand-in
+that records what it was given, so the bookkeeping is checked without solving.  Saved OCP
+settings: read as they were solved."""
+
+import concurrent.futures as cf
+
+import numpy as np
+import pytest
+
+from cocomopl.dataset import generate as module
+from cocomopl.dataset.generate import JobResult, _solve_by_continuation
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.ocp.settings import OCPSettings
+
+
+class InlineExecutor:
+    """Runs each job at once, in this process."""
+
+    def submit(self, fn, *args):
+        future = cf.Future()
+        future.set_result(fn(*args))
+        return future
+
+    as_completed = staticmethod(cf.as_completed)
+
+    @staticmethod
+    def result(future):
+        return future.result()
+
+
+class FakeMotion:
+    def __init__(self, cost, q):
+        self.meta = {"solver": {"cost": cost}}
+        self.q = q
+
+
+def test_each_sweep_continues_from_its_last_walk_and_each_length_keeps_the_cheaper_sweep(monkeypatch):
+    calls = []
+
+    def fake_length_job(robot_name, settings, length, kinds, cyclic=None, walk_guess=None):
+        calls.append((length, None if walk_guess is None else float(walk_guess[0])))
+        seen = sum(1 for L, _ in calls if L == length)  # 1 in the first sweep to reach it, 2 in the other
+        cost = {0.15: (1.0, 2.0), 0.2: (3.0, 1.0), 0.25: (5.0, 5.5)}[length][seen - 1]
+        q = np.full((4, 10), cost)
+        return JobResult(motions={StepSpec("cyclic", length, length): FakeMotion(cost, q)}, walk=np.array([length]))
+
+    monkeypatch.setattr(module, "length_job", fake_length_job)
+    kept = []
+    todo = {L: ["cyclic"] for L in (0.15, 0.2, 0.25)}
+    record = _solve_by_continuation(InlineExecutor(), "talos", OCPSettings(), todo, {}, kept.append)
+
+    # every length after a sweep's first is warm-started from the length solved before it in that sweep
+    assert (0.15, None) in calls and (0.25, None) in calls
+    assert (0.2, 0.15) in calls and (0.25, 0.2) in calls  # up
+    assert (0.2, 0.25) in calls and (0.15, 0.2) in calls  # down
+    assert len(calls) == 6
+    # each length keeps its cheaper sweep and records both
+    costs = {L: next(iter(r.motions.values())).meta["solver"]["cost"] for r in kept
+             for L in [next(iter(r.motions)).start_length]}
+    assert costs == {0.15: 1.0, 0.2: 1.0, 0.25: 5.0}
+    assert set(record) == {"150", "200", "250"}
+    assert record["200"]["ascending_cost"] != record["200"]["descending_cost"]
+    assert record["150"]["cyclic_joint_difference_rad"] == 1.0
+
+
+def test_a_single_length_is_solved_once(monkeypatch):
+    calls = []
+
+    def fake_length_job(robot_name, settings, length, kinds, cyclic=None, walk_guess=None):
+        calls.append(length)
+        return JobResult(motions={StepSpec("cyclic", length, length): FakeMotion(1.0, np.zeros((2, 8)))})
+
+    monkeypatch.setattr(module, "length_job", fake_length_job)
+    record = _solve_by_continuation(InlineExecutor(), "talos", OCPSettings(), {0.2: ["cyclic"]}, {}, lambda r: None)
+    assert calls == [0.2]
+    assert record["200"]["chosen"] == "ascending"
+
+
+def test_settings_saved_before_the_upper_body_weight_read_as_they_were_solved():
+    saved = OCPSettings(w_posture=2.0).as_dict()
+    del saved["w_upper_posture"]
+    assert OCPSettings.from_saved(saved).w_upper_posture == 2.0  # then the legs' weight held for every joint
+    assert OCPSettings.from_saved(OCPSettings().as_dict()) == OCPSettings()
+
+
+def test_settings_of_an_unknown_kind_are_refused():
+    with pytest.raises(Error, match="w_new"):
+        OCPSettings.from_saved({**OCPSettings().as_dict(), "w_new": 1.0})
