@@ -228,8 +228,8 @@ def cmd_dataset_check(args) -> int:
 
 
 def cmd_dataset_family(args) -> int:
-    from cocomopl.primitives.family import GROUPS
     from cocomopl.jobs import check_family_file
+    from cocomopl.primitives.family import GROUPS
 
     report = check_family_file(args.file, args.model, args.lengths_mm, args.workers, progress=not args.json)
     lines = [f"{report['solved']} steps solved at {', '.join(f'{x:g}' for x in report['lengths_mm'])} mm in "
@@ -279,6 +279,7 @@ def cmd_model_info(args) -> int:
 def cmd_generate(args) -> int:
     from cocomopl.jobs import generate_walk_file
 
+    _check_refine_options(args)
     _note_replacing(args.out, inputs=[args.model])
     payload = generate_walk_file(args.lengths_mm, args.out, args.model, args.dt, args.first_swing, args.strict,
                                  args.command_line, args.refine, args.data, progress=not args.json)
@@ -298,6 +299,12 @@ def cmd_generate(args) -> int:
                  f"{payload['generation_s'] * 1e6:.0f} us, placed in the world in {payload['placement_s'] * 1e3:.0f} ms")
     _emit(args, payload, "\n".join(lines))
     return 0
+
+
+def _check_refine_options(args) -> None:
+    """``--data`` names the dataset ``--refine`` solves with; alone it would be ignored."""
+    if args.data and not args.refine:
+        raise Error("--data is used only with --refine")
 
 
 def _refine_lines(summary: dict) -> list[str]:
@@ -341,6 +348,7 @@ def cmd_simulate(args) -> int:
 def cmd_walk(args) -> int:
     from cocomopl.pipeline import walk_report
 
+    _check_refine_options(args)
     out = Path(args.out)
     _note_replacing(out, inputs=[args.model], folder=True)
     payload = walk_report(args.lengths_mm, out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
@@ -372,8 +380,8 @@ def cmd_reproduce(args) -> int:
     start, end = payload["window_s"]
     lines = [(f"every figure over the walking window {start:g} to {end:g} s; contact time constant "
               f"{1000 * payload['contact_time_constant_s']:g} ms, reference low-pass {payload['reference_cutoff_hz']:g} Hz"),
-             "Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_gen refined by optimal control (refined), "
-             "M_opt (OC), Kajita on M_gen's footsteps"]
+             ("Table I analogue: mean torque (N m s^-1/2), M_gen (MP), M_gen refined by optimal control (refined), "
+              "M_opt (OC), Kajita on M_gen's footsteps")]
     lines += [f"  {name:36s} {value:.4f}" for name, value in payload["table1_mean_torque"].items()]
     lines.append(f"MP vs OC simulated mean torque: {100 * payload['mp_vs_oc_simulated_mean_torque_difference']:+.2f} %; "
                  f"refined vs OC: {100 * payload['refined_vs_oc']['mean_torque']['relative_difference']:+.2f} %")

@@ -73,3 +73,11 @@ def test_refining_against_a_file_that_is_not_a_dataset_gets_one_line(tmp_path):
     result = run_cli("refine", str(walk_file), "--data", str(walk_file), "--out", str(tmp_path / "r.h5"))
     assert_one_line_error(result, str(walk_file))
     assert not (tmp_path / "r.h5").exists()
+
+
+@pytest.mark.parametrize("command", ["generate", "walk"])
+def test_data_without_refine_gets_one_line_and_writes_nothing(tmp_path, command):
+    out = tmp_path / "out"
+    result = run_cli(command, "--lengths-mm", "200,200", "--data", "x.h5", "--out", str(out), cwd=tmp_path)
+    assert_one_line_error(result, "--data", "--refine")
+    assert list(tmp_path.iterdir()) == []

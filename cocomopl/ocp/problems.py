@@ -240,6 +240,11 @@ def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: O
     return xs
 
 
+def state_count(phases: list[Phase]) -> int:
+    """How many states a problem of ``phases`` has: one per knot and impact, and the terminal one."""
+    return sum(1 if p.kind == "impact" else p.knots for p in phases) + 1
+
+
 def phases_time_step(phases: list[Phase], knot: int) -> bool:
     """Whether knot ``knot`` (0-based) of the phases takes time (False at impacts)."""
     k = 0

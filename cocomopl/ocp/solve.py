@@ -27,6 +27,7 @@ from cocomopl.ocp.problems import (
     initial_guess,
     landing_point,
     next_step_state,
+    state_count,
     translate_state,
     walk_phases,
 )
@@ -58,7 +59,7 @@ def initial_states(robot: Robot, plan: StepPlan, settings: OCPSettings, guess: s
     elif guess == "kinematic":
         xs = initial_guess(robot, plan.phases, plan.x0, settings)
     elif guess == "static":
-        xs = [plan.x0] * (sum(1 if p.kind == "impact" else p.knots for p in plan.phases) + 1)
+        xs = [plan.x0] * state_count(plan.phases)
     else:
         raise ValueError(f"unknown initial guess {guess!r}")
     xs[0] = plan.x0
@@ -171,8 +172,7 @@ def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.n
     x_end = robot.state_from_posture(double_support_posture(robot, (end_x, separation), (end_x, 0.0)))
     # the walk only needs to settle into its gait, not to converge tightly
     plan = StepPlan(specs[0], phases, x_rest, x_end)
-    knots = sum(1 if p.kind == "impact" else p.knots for p in phases) + 1
-    start = list(guess) if guess is not None and len(guess) == knots else "kinematic"
+    start = list(guess) if guess is not None and len(guess) == state_count(phases) else "kinematic"
     return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, max_iterations=WALK_ITERATIONS)
 
 
