@@ -11,7 +11,9 @@ Per step: iterations, wall time and final cost, warm and cold, and whether each 
 Seed 5 is used by no other benchmark.  Keys: ``iterations_median``, ``iterations_p95``,
 ``cold_iterations_median``, ``cost_ratio_to_cold_median``, ``cost_ratio_to_cold_max``
 (refined cost over cold cost, per step), ``speedup_median`` (cold wall time over warm, per
-step), ``success_rate`` (refined steps converged), ``cold_success_rate``,
+step), ``success_rate`` (refined steps converged and accepted by the dataset's checks),
+``fallback_steps`` (those the warm start left unaccepted, solved again from the cold guess;
+their iterations and time count both solves), ``cold_success_rate``,
 ``raw_cost_ratio_median`` (per walk: the generated walk's ∫Στ²dt as placed over the refined
 one's) and ``m_gen`` (the same for M_gen alone).
 """
@@ -50,6 +52,7 @@ def run_one(lengths_mm: list[float]) -> dict:
     for plan, warm in zip(refined.plans, refined.steps):
         cold = cold_solve(walk.robot, plan, settings)
         rows.append({"step": warm["step"], "iterations": warm["iterations"], "converged": warm["converged"],
+                     "fallback": warm["fallback"],
                      "cost": warm["cost"], "solve_s": warm["solve_time_s"],
                      "cold_iterations": cold.stats["iterations"], "cold_converged": cold.stats["converged"],
                      "cold_cost": cold.stats["cost"], "cold_solve_s": cold.stats["solve_time_s"]})
@@ -74,6 +77,7 @@ def summarise(walks: list[dict]) -> dict:
         "cost_ratio_to_cold_min": float(ratio.min()),
         "speedup_median": float(np.median(speedup)),
         "success_rate": float(np.mean([r["converged"] for r in steps])),
+        "fallback_steps": int(sum(r["fallback"] for r in steps)),
         "cold_success_rate": float(np.mean([r["cold_converged"] for r in steps])),
         "raw_cost_ratio_median": float(np.median([w["raw_cost_ratio"] for w in walks])),
         "raw_cost_ratio_max": float(np.max([w["raw_cost_ratio"] for w in walks])),

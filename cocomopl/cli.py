@@ -231,7 +231,8 @@ def cmd_dataset_family(args) -> int:
     from cocomopl.jobs import check_family_file
     from cocomopl.primitives.family import GROUPS
 
-    report = check_family_file(args.file, args.model, args.lengths_mm, args.workers, progress=not args.json)
+    report = check_family_file(args.file, args.model, args.lengths_mm, args.workers, args.probes_out,
+                               progress=not args.json)
     lines = [f"{report['solved']} steps solved at {', '.join(f'{x:g}' for x in report['lengths_mm'])} mm in "
              f"{report['solve_s']:.0f} s" + (f"; not converged: {', '.join(report['failed'])}" if report["failed"] else ""),
              "RMS distance of the OC steps from the model's prediction (and from the linear interpolation of the",
@@ -243,6 +244,25 @@ def cmd_dataset_family(args) -> int:
             lines.append(f"{kind:8s}" + "".join(f"{1000 * model[g]:8.1f} ({1000 * linear[g]:5.1f})" for g in GROUPS))
     _emit(args, report, "\n".join(lines))
     return 0
+
+
+def cmd_dataset_grow(args) -> int:
+    from cocomopl.jobs import grow_dataset
+    from cocomopl.primitives.family import GROUPS
+
+    report = grow_dataset(args.out, args.file, args.model, args.budget, args.uniform, args.held_out, args.workers,
+                          args.scheduler, args.command_line, progress=not args.json, warm_start=args.warm_start)
+    picked = ", ".join(f"{x:g}" for x in report["picked_mm"])
+    held_out = ", ".join(f"{x:g}" for x in report["held_out_mm"])
+    lines = [(f"wrote {report['dataset']} and {report['model']}: {report['method']} growth by {picked} mm "
+              f"({report['solved']} OCPs solved)" + (f"; NOT CONVERGED: {', '.join(report['failed'])}" if report["failed"] else "")),
+             (f"RMS error on {report['held_out_steps']} held-out steps ({held_out} mm); "
+              "joints and pelvis in mrad, ZMP in mm:"),
+             f"{'model':8s}" + "".join(f"{g:>10s}" for g in GROUPS)]
+    for when in ("before", "after"):
+        lines.append(f"{when:8s}" + "".join(f"{1000 * report['held_out'][when]['model'][g]:10.2f}" for g in GROUPS))
+    _emit(args, report, "\n".join(lines))
+    return 1 if report["failed"] else 0
 
 
 def cmd_train(args) -> int:
@@ -535,8 +555,33 @@ def _dataset_parsers(sub) -> None:
                         help="step lengths in millimetres to solve at, strictly between the dataset's (default: the "
                         "midpoints of its lengths)")
     family.add_argument("--workers", type=_workers, metavar="N", help="local worker processes (default: one per core)")
+    family.add_argument("--probes-out", metavar="FILE.h5",
+                        help="also save the solved steps there, as held-out steps for 'dataset grow --held-out'")
     _json_option(family)
     family.set_defaults(func=cmd_dataset_family)
+
+    grow = dataset.add_parser("grow", help="add the step lengths where the model is least certain, solve them, "
+                              "retrain, and measure the model on held-out steps before and after")
+    grow.add_argument("file", nargs="?", metavar="FILE.h5", help="dataset HDF5 file (default: the bundled one)")
+    grow.add_argument("--model", metavar="MODEL.npz", help="model trained on it (default: the bundled one)")
+    grow.add_argument("--budget", type=int, required=True, metavar="N",
+                      help="step lengths to add, each with its cyclic, start and stop steps and transitions to its "
+                      "neighbours (7 OCPs)")
+    grow.add_argument("--uniform", action="store_true",
+                      help="spread the new lengths evenly instead (the baseline growth is compared with)")
+    grow.add_argument("--warm-start", choices=("model", "neighbour"), default="model",
+                      help="start each new length's warm-up walk from the model's walk, or from the dataset's OC walk "
+                      "at the nearest trained length (continuation) (default: %(default)s)")
+    grow.add_argument("--held-out", metavar="PROBES.h5",
+                      help="held-out steps saved by 'dataset family --probes-out' (default: solve them at the "
+                      "midpoints of the dataset's lengths)")
+    grow.add_argument("--out", default="cocomopl-grown.h5", metavar="FILE.h5",
+                      help="grown dataset; the retrained model goes beside it as .npz (default: %(default)s)")
+    grow.add_argument("--workers", type=_workers, metavar="N", help="local worker processes (default: one per core)")
+    grow.add_argument("--scheduler", metavar="ADDRESS",
+                      help="run on an existing Dask cluster, e.g. tcp://host:8786 (needs the [cluster] extra)")
+    _json_option(grow)
+    grow.set_defaults(func=cmd_dataset_grow)
 
 
 def _primitives_parsers(sub) -> None:

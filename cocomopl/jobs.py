@@ -30,7 +30,7 @@ from cocomopl.motion_file import (
     report_folder,
     write_motions,
 )
-from cocomopl.provenance import stamp
+from cocomopl.provenance import file_identity, stamp
 from cocomopl.robot import DEFAULT_ROBOT
 
 
@@ -88,26 +88,12 @@ def check_dataset_file(path: str | Path | None = None, verbose: bool = False) ->
     return report
 
 
-def check_family_file(
-    path: str | Path | None = None,
-    model: str | Path | None = None,
-    lengths: list[float] | None = None,
-    workers: int | None = None,
-    progress: bool = False,
-) -> dict:
-    """The family check of a dataset (default: the bundled one) against a model trained on it
-    (default: the bundled one): its cyclic, start and stop steps solved at ``lengths`` (m;
-    default: the midpoints of the dataset's lengths) and compared with the model's predictions
-    and with the linear interpolation of the dataset's steps (:mod:`cocomopl.primitives.family`).
-    """
-    from tqdm import tqdm
-
-    from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
-    from cocomopl.dataset.generate import Executor, check_workers, length_job
+def _trained_model(path: Path, model: Path):
+    """The training steps of the dataset ``path``, its attributes, the model ``model`` trained on its
+    robot's signals, the robot and its trained lengths (m); an :class:`Error` if the model is another robot's."""
     from cocomopl.primitives.model_file import load_model
     from cocomopl.primitives.training import load_training_steps
 
-    path, model = dataset_path(path), model_path(model)
     training = load_training_steps(path)
     _, attrs = read_motions(path, dataset=True)
     primitives = load_model(model).prepare()
@@ -115,18 +101,30 @@ def check_family_file(
     if list(primitives.signal_names) != list(training.signal_names) or primitives.metadata_.get("robot", robot.name) != robot.name:
         raise Error(f"{model} was not trained on {robot.name}'s signals, those of {path}")
     trained = sorted({s.start_length for s in training.specs if s.kind == "cyclic"})
-    lengths = probe_lengths(trained) if lengths is None else sorted(set(lengths))
+    return training, attrs, primitives, robot, trained
+
+
+def _check_probe_lengths(lengths: list[float], trained: list[float]) -> list[float]:
+    """``lengths`` (m), sorted, if all lie strictly between the ``trained`` ones; else :class:`Error`."""
+    lengths = sorted(set(lengths))
     outside = [x for x in lengths if not trained[0] < x < trained[-1] or x in trained]
     if outside:
         raise Error(f"probe lengths must lie strictly between the dataset's lengths "
                     f"({1000 * trained[0]:g} to {1000 * trained[-1]:g} mm, none of them): {', '.join(f'{1000 * x:g}' for x in outside)} mm")
-    workers = min(check_workers(workers) if workers else (os.cpu_count() or 1), len(lengths))
-    started = time.perf_counter()
+    return lengths
+
+
+def _solve_probes(robot_name: str, settings: dict, lengths: list[float], workers: int, progress: bool) -> tuple[dict, list]:
+    """The cyclic, start and stop steps of each length (m), solved as the dataset's are, in ``workers``
+    local processes: the motions by spec and the names of the steps that did not converge."""
+    from tqdm import tqdm
+
+    from cocomopl.dataset.generate import Executor, length_job
+
     executor = Executor(workers, None)
     solved, failed = {}, []
     try:
-        futures = [executor.submit(length_job, robot.name, attrs["settings"], L, ["cyclic", "start", "stop"])
-                   for L in lengths]
+        futures = [executor.submit(length_job, robot_name, settings, L, ["cyclic", "start", "stop"]) for L in lengths]
         for future in tqdm(executor.as_completed(futures), total=len(futures), desc="probe lengths solved",
                            disable=not progress):
             result = executor.result(future)
@@ -136,10 +134,162 @@ def check_family_file(
         executor.close()
     if not solved:
         raise Error(f"no probe step converged ({', '.join(failed)})")
+    return solved, failed
+
+
+def check_family_file(
+    path: str | Path | None = None,
+    model: str | Path | None = None,
+    lengths: list[float] | None = None,
+    workers: int | None = None,
+    probes_out: str | Path | None = None,
+    progress: bool = False,
+) -> dict:
+    """The family check of a dataset (default: the bundled one) against a model trained on it
+    (default: the bundled one): its cyclic, start and stop steps solved at ``lengths`` (m;
+    default: the midpoints of the dataset's lengths) and compared with the model's predictions
+    and with the linear interpolation of the dataset's steps (:mod:`cocomopl.primitives.family`).
+    ``probes_out``: also save the solved steps there, for ``dataset grow --held-out``.
+    """
+    from cocomopl.dataset.generate import check_workers
+    from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
+
+    path, model = dataset_path(path), model_path(model)
+    training, attrs, primitives, robot, trained = _trained_model(path, model)
+    lengths = _check_probe_lengths(probe_lengths(trained) if lengths is None else lengths, trained)
+    if probes_out is not None:
+        probes_out = output_file(probes_out, "probes.h5", inputs=[path, model])
+    workers = min(check_workers(workers) if workers else (os.cpu_count() or 1), len(lengths))
+    started = time.perf_counter()
+    solved, failed = _solve_probes(robot.name, attrs["settings"], lengths, workers, progress)
+    if probes_out is not None:
+        write_motions(probes_out, {s.name: m for s, m in solved.items()},
+                      {"content": "probes", "robot": robot.name, "settings": attrs["settings"]})
     probes = probe_steps(robot, solved, training.source)
     errors = family_errors(primitives, probes, training, signal_group_indices(robot, training.signal_names))
     return {"dataset": str(path), "model": str(model), "lengths_mm": [1000 * x for x in lengths],
             "solved": len(solved), "failed": sorted(failed), "solve_s": time.perf_counter() - started, **errors}
+
+
+def grow_dataset(
+    out: str | Path,
+    data: str | Path | None = None,
+    model: str | Path | None = None,
+    budget: int = 2,
+    uniform: bool = False,
+    held_out: str | Path | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    command: str | None = None,
+    progress: bool = False,
+    warm_start: str = "model",
+) -> dict:
+    """Grow the dataset ``data`` (default: the bundled one) by ``budget`` step lengths where the
+    model ``model`` trained on it (default: the bundled one) is least certain
+    (:mod:`cocomopl.primitives.growth`; ``uniform``: spread evenly instead, the baseline), write
+    it to ``out``, retrain the model beside it (``out`` with ``.npz``) and measure both models
+    on held-out steps.
+
+    Each new length's cyclic, start and stop steps and its transitions to its neighbours are
+    solved as ``dataset generate`` solves them (resumably, locally or on Dask at
+    ``scheduler``), the warm-up walk warm-started from the model's walk at that length (``warm_start``
+    "model") or from the dataset's OC walk at the nearest trained length ("neighbour",
+    continuation).  The
+    held-out steps are those of ``held_out`` (saved by ``dataset family --probes-out``), or,
+    by default, solved at the midpoints of the dataset's lengths; no length is picked among them.
+    """
+    from cocomopl.dataset.generate import check_workers, generate
+    from cocomopl.ocp.settings import OCPSettings
+    from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
+    from cocomopl.primitives.growth import check_budget, pick_uncertain, pick_uniform, variance_left
+    from cocomopl.primitives.model_file import load_model
+    from cocomopl.primitives.training import load_training_steps
+
+    require_extra("jax", "train", "cocomopl dataset grow")
+    data, model = dataset_path(data), model_path(model)
+    training, attrs, primitives, robot, trained = _trained_model(data, model)
+    probes = None if held_out is None else _read_probes(held_out, robot, attrs, trained)
+    held_lengths = probe_lengths(trained) if probes is None else sorted({s.start_length or s.end_length for s in probes})
+    check_budget(budget, trained, held_lengths)
+    out = output_file(out, "grown.h5", inputs=[data, model, held_out], beside=(".npz", ".png"))
+    workers = check_workers(workers) if workers else (os.cpu_count() or 1)
+    started = time.perf_counter()
+    if probes is None:
+        probes, _ = _solve_probes(robot.name, attrs["settings"], held_lengths, workers, progress)
+    if uniform:
+        picked = pick_uniform(trained, budget, held_lengths)
+    else:
+        picked = [L for L, _ in pick_uncertain(primitives, trained, budget, held_lengths)]
+    settings = OCPSettings.from_saved(attrs["settings"])
+    dataset, _ = read_motions(data, dataset=True)
+    if warm_start == "model":
+        guesses = {L: _model_walk(robot, model, L, settings) for L in picked}
+    else:
+        guesses = {L: _neighbour_walk(robot, dataset, attrs["settings"], min(trained, key=lambda x: abs(x - L)), L, settings)
+                   for L in picked}
+    known = {m.steps[0]: m for m in dataset.values() if m.steps[0].swing_side == "left"}
+    pairs = {(s.start_length, s.end_length) for s in known if s.kind == "transition" and s.start_length < s.end_length}
+    record = {"grown": {"from_dataset": file_identity(data), "from_model": file_identity(model),
+                        "method": "uniform" if uniform else "uncertainty",
+                        "warm_start": warm_start,
+                        "picked_mm": [1000 * L for L in picked],
+                        "variance_left": [variance_left(primitives, L, []) for L in picked],
+                        "held_out_mm": [1000 * L for L in held_lengths]}}
+    solved = generate(out, tuple(sorted(trained + picked)), tuple(sorted(pairs)), robot.name, settings, workers, scheduler,
+                      command or "Python API", progress, known=known, walk_guesses=guesses, record=record)
+    retrained = train_model(out.with_suffix(".npz"), out, workers=workers if not scheduler else os.cpu_count() or 1,
+                            command=command, progress=progress)
+    groups = signal_group_indices(robot, training.signal_names)
+    held = probe_steps(robot, probes, training.source)
+    grown = load_training_steps(out)
+    errors = {"before": family_errors(primitives, held, training, groups)["all"],
+              "after": family_errors(load_model(out.with_suffix(".npz")).prepare(), held, grown, groups)["all"]}
+    return {**record["grown"], "dataset": str(out), "model": retrained["output"], "from": str(data),
+            "solved": solved["solved"], "failed": solved["failed"], "held_out_steps": len(probes),
+            "kernel": retrained["kernel"], "n_primitives": retrained["n_primitives"], "held_out": errors,
+            "wall_time_s": time.perf_counter() - started}
+
+
+def _model_walk(robot, model: Path, length: float, settings) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The model's walk at ``length`` (m) on the knots of the warm-up walk of that length: states and torques."""
+    from cocomopl.pipeline import generate_walk
+
+    return _on_warm_up_knots(robot, generate_walk([length] * 4, model).motion, length, settings)
+
+
+def _neighbour_walk(robot, dataset: dict, saved_settings: dict, neighbour: float, length: float,
+                    settings) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The dataset's OC walk at the trained length ``neighbour`` (its start, cyclic and stop steps
+    chained) on the knots of the warm-up walk of ``length``: continuation from the neighbour."""
+    from cocomopl.gait import sequence_specs
+    from cocomopl.ocp.chained_steps import solve_sequence
+
+    walk = solve_sequence(robot, sequence_specs([neighbour] * 4), dict(dataset), saved_settings)
+    return _on_warm_up_knots(robot, walk, length, settings)
+
+
+def _on_warm_up_knots(robot, walk, length: float, settings) -> tuple[np.ndarray, list[np.ndarray]]:
+    """A walk of four steps (start, two cyclic, stop) on the knots of the warm-up walk of
+    ``length`` (m): its states and torques, each impact-free segment mapped in time."""
+    from cocomopl.ocp.refine import walk_guess, warm_start
+    from cocomopl.ocp.solve import warm_up_plan
+
+    plan = warm_up_plan(robot, length, settings)
+    xs, us = warm_start(walk_guess(robot, walk), plan.phases, plan.x0, settings.dt)
+    return np.array(xs), us
+
+
+def _read_probes(path: str | Path, robot, attrs: dict, trained: list[float]) -> dict:
+    """The held-out steps of a ``dataset family --probes-out`` file, by spec; an :class:`Error` unless
+    they were solved for ``robot`` with the dataset's settings (``attrs``) between its lengths."""
+    motions, probe_attrs = read_motions(path, robot=robot)
+    if probe_attrs.get("content") != "probes":
+        raise Error(f"{path}: it is not a file of held-out steps (from 'cocomopl dataset family --probes-out')")
+    if probe_attrs.get("settings") != attrs["settings"]:
+        raise Error(f"{path}: its steps were solved with other OCP settings than the dataset's")
+    probes = {m.steps[0]: m for m in motions.values()}
+    _check_probe_lengths([s.start_length or s.end_length for s in probes], trained)
+    return probes
 
 
 # ---------------------------------------------------------------------------- stage 2

@@ -12,6 +12,8 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from cocomopl.data import dataset_path as bundled_dataset_path
 from cocomopl.data import model_path as bundled_model_path
 from cocomopl.dataset.signals import signal_names
@@ -117,12 +119,15 @@ def refine(motion: Motion, dataset_path: str | Path | None = None, progress: boo
     dataset, attrs = read_motions(dataset_path, dataset=True)
     robot = load_robot(next(iter(dataset.values())).robot)
     check_refinable(motion, robot)
-    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress=progress)
+    gait_states = {m.steps[0].start_length: np.concatenate([m.q[0], m.v[0]]) for m in dataset.values()
+                   if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
+    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress, gait_states)
     iterations = [row["iterations"] for row in refined.steps]
     summary = {
         "steps": [row["step"] for row in refined.steps],
         "iterations": iterations,
         "converged": [row["converged"] for row in refined.steps],
+        "fallback": [row["fallback"] for row in refined.steps],
         "cost": [row["cost"] for row in refined.steps],
         "iterations_median": statistics.median(iterations),
         "refine_s": refined.refine_s,

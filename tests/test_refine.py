@@ -16,6 +16,7 @@ from cocomopl.motion_file import read_motions
 from cocomopl.ocp.refine import check_refinable, cold_solve, refine_walk, solve_warm, torque_cost
 from cocomopl.ocp.solve import step_plan
 from cocomopl.pipeline import generate_walk
+from cocomopl.robot import mirror_joints
 
 from conftest import SMALL, SMALL_LENGTH, assert_one_line_error, run_cli
 
@@ -51,6 +52,10 @@ def test_a_refined_walk_keeps_its_steps_and_obeys_the_dynamics(robot, walk):
     # it ends where the generated walk ends: the feet beside each other at the last footstep
     assert np.allclose(motion.q[-1, :2], walk.motion.q[-1, :2], atol=0.03)
     assert torque_cost(motion) > 0
+    # the second step's torque rate counts from the first step's last torques, in its own frame
+    first, second = refined.plans
+    assert first.tau0 is None
+    np.testing.assert_allclose(mirror_joints(robot, second.tau0), motion.tau[motion.step_starts[1] - 1])
 
 
 def test_only_generated_walks_of_the_datasets_robot_are_refined(robot, walk):
@@ -81,3 +86,17 @@ def test_data_without_refine_gets_one_line_and_writes_nothing(tmp_path, command)
     result = run_cli(command, "--lengths-mm", "200,200", "--data", "x.h5", "--out", str(out), cwd=tmp_path)
     assert_one_line_error(result, "--data", "--refine")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_step_ending_at_a_trained_length_is_held_to_the_datasets_gait_state(robot, walk, small_dataset):
+    from cocomopl.ocp.problems import landing_point, next_step_state
+    from cocomopl.ocp.refine import step_guesses, step_plan_from, still_soles
+
+    motions, _ = read_motions(small_dataset)
+    cyclic = motions[StepSpec("cyclic", SMALL_LENGTH, SMALL_LENGTH).name]
+    gait = np.concatenate([cyclic.q[0], cyclic.v[0]])
+    start = step_guesses(robot, walk.motion)[0]  # the start step, ending at SMALL_LENGTH
+    held = step_plan_from(robot, start, None, SMALL, gait_states={SMALL_LENGTH: gait})
+    np.testing.assert_array_equal(held.x_target, next_step_state(robot, gait, landing_point(held.phases)))
+    free = step_plan_from(robot, start, None, SMALL, gait_states={0.3: gait})
+    np.testing.assert_array_equal(free.x_target, still_soles(robot, start.states[-1]))

@@ -19,7 +19,7 @@ import shutil
 import sys
 import time
 from dataclasses import dataclass, field, replace
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -61,18 +61,19 @@ class JobResult:
 
 def length_job(
     robot_name: str, settings: dict, length: float, kinds: list[str], cyclic: Motion | None = None,
-    walk_guess: np.ndarray | None = None,
+    walk_guess: np.ndarray | None = None, walk_controls: list[np.ndarray] | None = None,
 ) -> JobResult:
     """The ``kinds`` among cyclic, start and stop steps of one length (runs in a worker:
     plain data in and out).  An already solved ``cyclic`` step fixes the start state;
-    ``walk_guess``, the warm-up walk of a neighbouring length, warm-starts this length's."""
+    ``walk_guess``, the warm-up walk of a neighbouring length or the model's (with its torques
+    ``walk_controls``), warm-starts this length's."""
     robot = Robot(robot_name)
     opts = OCPSettings.from_saved(settings)
     start_state = None
     if cyclic is not None:  # resumed: the solved cyclic step fixes S(L) and the timing
         start_state = np.concatenate([cyclic.q[0], cyclic.v[0]])
         opts = replace(opts, **phase_durations(cyclic))
-    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state, walk_guess)
+    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state, walk_guess, walk_controls)
     result = JobResult(walk=info.get("walk"))
     for kind, solution in solutions.items():
         spec = length_steps(length)[kind]
@@ -299,12 +300,18 @@ def generate(
     scheduler: str | None = None,
     command: str = "Python API",
     progress: bool = True,
+    known: dict[StepSpec, Motion] | None = None,
+    walk_guesses: dict[float, tuple] | None = None,
+    record: dict | None = None,
 ) -> dict:
     """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them;
     None: :func:`~cocomopl.dataset.plan.default_transitions`) and write the dataset to ``output``.
 
     Parts of an earlier run in ``<output>.parts/`` are reused if they pass
-    :func:`_finished_part`.  ``workers`` local processes (at most :func:`max_workers`), or
+    :func:`_finished_part`, and so are the steps ``known`` (those of a dataset being grown).
+    ``walk_guesses``: per length, the warm-up walk's initial states and torques (a grown
+    length's, from the model); those lengths are solved each from its own guess, not by
+    continuation.  ``record`` is added to the dataset's attributes.  ``workers`` local processes (at most :func:`max_workers`), or
     the Dask cluster at ``scheduler``, solve the rest.  The command line also bounds
     ``settings.dt`` to :data:`DT_RANGE_S`; this function takes any.
 
@@ -329,13 +336,14 @@ def generate(
     try:
         with _working_folder(parts, output):
             attrs = part_attrs(settings, robot)
-            done = {spec: motion for spec in specs
-                    if (motion := _finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None}
+            done = {spec: motion for spec, motion in (known or {}).items() if spec in specs}
+            done.update({spec: motion for spec in specs if spec not in done
+                         and (motion := _finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None})
             reused = len(done)
             start = time.perf_counter()
             where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
             failed, continuation = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
-                                                  progress)
+                                                  progress, walk_guesses)
             wall = time.perf_counter() - start
             if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
                 raise Error(
@@ -346,7 +354,7 @@ def generate(
                    "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
                    "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
                    "continuation": continuation,
-                   "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes"}
+                   "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes", **(record or {})}
             motions = _write_dataset(output, robot, specs, done, run)
     finally:
         executor.close()
@@ -373,6 +381,7 @@ def _solve_missing(
     attrs: dict,
     where: str,
     progress: bool,
+    walk_guesses: dict[float, tuple] | None = None,
 ) -> tuple[dict[str, list], dict]:
     """Solve the ``specs`` not in ``done``, adding each converged one to ``done`` and saving
     it at once in ``parts`` (with ``attrs``): the lengths' steps by continuation
@@ -414,7 +423,10 @@ def _solve_missing(
                        and s not in done]
             if missing:
                 todo[L] = missing
-        record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one)
+        if walk_guesses:
+            record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses)
+        else:
+            record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one)
         cyclic = {s.start_length: m for s, m in done.items() if s.kind == "cyclic"}
         futures = {}
         for spec in specs:
@@ -449,6 +461,8 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
     and the sweep chosen.
     """
     order = sorted(todo)
+    if not order:
+        return {}
     chains = {sweep: order if sweep == "ascending" else order[::-1] for sweep in SWEEPS[: 1 if len(order) < 2 else 2]}
     results: dict[float, dict[str, JobResult]] = {L: {} for L in order}
     pending = {}
@@ -472,6 +486,17 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
             chosen, record[f"{1000 * L:g}"] = _choose_branch(results[L])
             collect(results[L][chosen])
     return record
+
+
+def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[float, list[str]],
+                        done: dict[StepSpec, Motion], collect, guesses: dict[float, tuple]) -> dict:
+    """Solve the missing ``todo[L]`` kinds of each length at once, each length's warm-up walk
+    from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
+    futures = [executor.submit(length_job, robot_name, settings.as_dict(), L, kinds, done.get(StepSpec("cyclic", L, L)),
+                               *guesses.get(L, (None, None)))
+               for L, kinds in todo.items()]
+    collect(futures)
+    return {f"{1000 * L:g}": {"chosen": "model" if L in guesses else "kinematic"} for L in todo}
 
 
 def _choose_branch(by_sweep: dict[str, JobResult]) -> tuple[str, dict]:
@@ -503,7 +528,7 @@ def _write_dataset(output: Path, robot: Robot, specs: list[StepSpec], done: dict
         "robot": robot.name,
         "robot_inertia_symmetrisation_m": robot.inertia_asymmetry,
         **run,
-        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "versions": versions(["pin", "crocoddyl", "example-robot-data", "numpy", "h5py", "dask"]),
         "signal_names": signals[next(iter(signals))]["names"],
         "continuity": continuity_report(robot, done),

@@ -39,12 +39,17 @@ class Phase:
 
 @dataclass
 class StepPlan:
-    """The phases of one OCP, its initial state and, where continuity demands, its end state."""
+    """The phases of one OCP, its initial state and, where continuity demands, its end state.
+
+    ``tau0``: the torques before the first knot, from which the torque-rate cost starts (None:
+    those that hold ``x0`` quasi-statically, as a step from rest or the dataset's steps do).
+    """
 
     spec: StepSpec
     phases: list[Phase]
     x0: np.ndarray
     x_target: np.ndarray | None = None
+    tau0: np.ndarray | None = None
 
 
 def translate_state(robot: Robot, x: np.ndarray, dx: float, dy: float) -> np.ndarray:

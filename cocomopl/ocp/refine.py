@@ -4,9 +4,11 @@ Each step of the walk becomes the initial guess of the OCP the dataset solves fo
 its kind and lengths (:func:`cocomopl.ocp.problems.build_problem`, the dataset's settings):
 states from the generated joints and pelvis, controls from the walk's inverse-dynamics
 torques, phase durations from the walk.  The first step starts at rest, as the dataset's
-start steps do; every later step starts exactly where the previous refined step ended.  A
-step's end is held, as in the dataset, to the state the next step starts in: the standing
-posture after a stop, and otherwise the generated walk's state at the junction, with the
+start steps do; every later step starts exactly where the previous refined step ended, and
+its torque-rate cost counts from the previous step's last torques.  A step's end is held, as
+in the dataset, to the state the next step starts in: the standing posture after a stop; the
+dataset's gait state ``S(L)`` where the step ends at a trained length ``L``, exactly as the
+dataset's steps are held; and otherwise the generated walk's state at the junction, with the
 velocity of both soles removed (the OCP's contacts cannot reach a moving sole, and the
 generated junction keeps a few cm/s of sole velocity that would otherwise cost several
 times the step's torque).
@@ -14,7 +16,9 @@ times the step's torque).
 The solver is the dataset's (box-FDDP), run one iteration at a time so that the
 iterations are counted exactly and the regularisation carries over; a step has converged
 when its cost has changed by less than the dataset's relative tolerance over the last
-``WINDOW`` iterations, with no dynamic gap left.  The dataset's own runs test the same
+``WINDOW`` iterations, with no dynamic gap left, and it passes the checks the dataset accepts
+its steps by (the plateau test alone once accepted a step stopped at 84 times the cost
+from another start).  The dataset's own runs test the same
 tolerance over 25 iterations, which would hide any saving of a warm start below 25.
 """
 
@@ -32,9 +36,9 @@ from cocomopl.gait import OTHER_SIDE, foot_separation, footsteps
 from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.ocp.chained_steps import concatenate, place
-from cocomopl.ocp.problems import StepPlan, initial_guess, landing_point, translate_state, walk_phases
+from cocomopl.ocp.problems import StepPlan, initial_guess, landing_point, next_step_state, translate_state, walk_phases
 from cocomopl.ocp.settings import OCPSettings
-from cocomopl.ocp.solve import Solution, prepared_problem, solution_of, to_motion
+from cocomopl.ocp.solve import Solution, failed_checks, prepared_problem, solution_of, to_motion
 from cocomopl.robot import Robot, mirror_joints, mirror_motion, mirror_state
 
 WINDOW = 5  # iterations over which a refined step's cost must settle
@@ -71,21 +75,30 @@ def step_guesses(robot: Robot, walk: Motion) -> list[StepGuess]:
     """
     feet = footsteps(robot, walk.steps)
     ends = [*walk.step_starts[1:], walk.n]
-    guesses = []
-    for k, spec in enumerate(walk.steps):
-        first, after_last = int(walk.step_starts[k]), int(ends[k])
-        rows = np.arange(first, min(after_last + 1, walk.n))
-        touchdowns = [i for i in walk.impacts if first <= i < after_last]
-        segment = np.searchsorted(np.array(touchdowns), rows, side="left")
-        stance = OTHER_SIDE[spec.swing_side]
-        origin = feet[k]["start"][stance][:2]
-        states = translate_state(robot, np.hstack([walk.q[rows], walk.v[rows]]), -origin[0], -origin[1])
-        torques = walk.tau[rows]
-        if stance == "left":
-            states, torques, spec = mirror_state(robot, states), mirror_joints(robot, torques), spec.mirrored()
-        durations = [float(walk.t[last] - walk.t[start]) for _, start, last in walk.phases if first <= start < after_last]
-        guesses.append(StepGuess(spec, states, torques, segment, walk.t[rows] - walk.t[first], durations))
-    return guesses
+    return [_guess(robot, walk, np.arange(int(walk.step_starts[k]), min(int(ends[k]) + 1, walk.n)), k, feet)
+            for k in range(len(walk.steps))]
+
+
+def walk_guess(robot: Robot, walk: Motion) -> StepGuess:
+    """A whole generated ``walk`` in the frame of its first step's OCP, as one guess: for a
+    problem of several steps, such as the warm-up walk of a new training length."""
+    return _guess(robot, walk, np.arange(walk.n), 0, footsteps(robot, walk.steps))
+
+
+def _guess(robot: Robot, walk: Motion, rows: np.ndarray, k: int, feet: list[dict]) -> StepGuess:
+    """The samples ``rows`` of ``walk`` in the frame of step ``k``'s stance sole (right support)."""
+    spec = walk.steps[k]
+    first, last = int(rows[0]), int(rows[-1])
+    touchdowns = [i for i in walk.impacts if first <= i < last]
+    segment = np.searchsorted(np.array(touchdowns), rows, side="left")
+    stance = OTHER_SIDE[spec.swing_side]
+    origin = feet[k]["start"][stance][:2]
+    states = translate_state(robot, np.hstack([walk.q[rows], walk.v[rows]]), -origin[0], -origin[1])
+    torques = walk.tau[rows]
+    if stance == "left":
+        states, torques, spec = mirror_state(robot, states), mirror_joints(robot, torques), spec.mirrored()
+    durations = [float(walk.t[end] - walk.t[start]) for _, start, end in walk.phases if first <= start < last]
+    return StepGuess(spec, states, torques, segment, walk.t[rows] - walk.t[first], durations)
 
 
 def _phases(spec: StepSpec, durations: list[float], robot: Robot, settings: OCPSettings) -> list:
@@ -162,12 +175,22 @@ def resting_state(robot: Robot, x_stance: float = 0.0) -> np.ndarray:
     return robot.state_from_posture(double_support_posture(robot, (x_stance, separation), (x_stance, 0.0)))
 
 
-def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settings: OCPSettings) -> StepPlan:
-    """The OCP of a generated step: its phases, start (``None``: at rest) and end target."""
+def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settings: OCPSettings,
+                   tau0: np.ndarray | None = None, gait_states: dict[float, np.ndarray] | None = None) -> StepPlan:
+    """The OCP of a generated step: its phases, start (``None``: at rest), the torques before it
+    (``None``: those holding the start) and end target: at rest after a stop, the gait state of
+    the step's end length where ``gait_states`` has it (the dataset's cyclic start states
+    ``S(L)``, as the dataset's own steps are held to), else the generated junction."""
     phases = _phases(guess.spec, guess.durations, robot, settings)
     x0 = resting_state(robot) if x0 is None else x0
-    target = resting_state(robot, landing_point(phases)[0]) if guess.spec.kind == "stop" else still_soles(robot, guess.states[-1])
-    return StepPlan(guess.spec, phases, x0, target)
+    end = guess.spec.end_length
+    if guess.spec.kind == "stop":
+        target = resting_state(robot, landing_point(phases)[0])
+    elif gait_states and end in gait_states:
+        target = next_step_state(robot, gait_states[end], landing_point(phases))
+    else:
+        target = still_soles(robot, guess.states[-1])
+    return StepPlan(guess.spec, phases, x0, target, tau0)
 
 
 def iterate(solver, xs: list, us: list, budget: int, tolerance: float, window: int = WINDOW) -> dict:
@@ -190,10 +213,16 @@ def iterate(solver, xs: list, us: list, budget: int, tolerance: float, window: i
 def solve_warm(robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list, us: list | None,
                budget: int | None = None) -> Solution:
     """Solve ``plan`` from the states ``xs`` and controls ``us`` (None: quasi-static), iterating as
-    :func:`iterate` does."""
+    :func:`iterate` does.  ``converged``: settled and accepted as the dataset accepts a step
+    (:func:`~cocomopl.ocp.solve.failed_checks`); ``settled``: the cost test alone."""
     problem, solver, xs, us = prepared_problem(robot, plan, settings, xs, us)
     stats = iterate(solver, xs, us, budget or settings.max_iterations, settings.tolerance)
-    return solution_of(problem, solver, plan, stats)
+    solution = solution_of(problem, solver, plan, stats)
+    # as the dataset accepts a step: settled, and passing the independent checks at its target
+    failed, gap = failed_checks(robot, solution, settings)
+    solution.stats.update(settled=stats["converged"], converged=stats["converged"] and not failed,
+                          failed_checks=failed, target_error=gap, fallback=False)
+    return solution
 
 
 def torque_cost(motion: Motion) -> float:
@@ -211,25 +240,31 @@ def check_refinable(walk: Motion, robot: Robot) -> None:
         raise Error(f"the walk is for robot {walk.robot!r} and the dataset's OCPs for {robot.name!r}")
 
 
-def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: bool = False) -> RefinedWalk:
-    """Refine every step of a generated ``walk`` by the OCP it approximates, in order.
+def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: bool = False,
+                gait_states: dict[float, np.ndarray] | None = None) -> RefinedWalk:
+    """Refine every step of a generated ``walk`` by the OCP it approximates, in order;
+    ``gait_states``: the dataset's ``S(L)`` by length, end targets where a step ends at one
+    (:func:`step_plan_from`).
 
-    Returns the refined walk (world frame, on the walk's footsteps) and per step its
-    iterations, convergence, cost, wall time and the generated step's torque cost.
+    A step the warm start leaves unaccepted is solved again from the dataset's own initial
+    guess (``fallback``).  Returns the refined walk (world frame, on the walk's footsteps)
+    and per step its iterations, convergence, cost, wall time and whether it fell back.
     """
     check_refinable(walk, robot)
     started = time.perf_counter()
     feet = footsteps(robot, walk.steps)
-    placed, rows, plans, x0 = [], [], [], None
+    placed, rows, plans, x0, tau0 = [], [], [], None, None
     for k, guess in enumerate(tqdm(step_guesses(robot, walk), desc="refining steps", disable=not progress, leave=False)):
-        plan = step_plan_from(robot, guess, x0, settings)
+        plan = step_plan_from(robot, guess, x0, settings, tau0, gait_states)
         plans.append(plan)
         xs, us = warm_start(guess, plan.phases, plan.x0, settings.dt)
         solution = solve_warm(robot, plan, settings, xs, us)
+        if not solution.stats["converged"]:
+            solution = _fall_back(robot, plan, settings, solution)
         motion = to_motion(robot, solution, settings)
         rows.append({"step": walk.steps[k].name, **{key: solution.stats[key] for key in
-                                                    ("iterations", "converged", "cost", "solve_time_s")}})
-        x0 = _next_start(robot, solution)
+                                                    ("iterations", "converged", "cost", "solve_time_s", "fallback")}})
+        x0, tau0 = _next_start(robot, solution)
         stance = OTHER_SIDE[walk.steps[k].swing_side]
         if stance == "left":
             motion = mirror_motion(robot, motion)
@@ -239,10 +274,26 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
     return RefinedWalk(refined, rows, plans, time.perf_counter() - started)
 
 
-def _next_start(robot: Robot, solution: Solution) -> np.ndarray:
-    """The end of a solved step as the start of the next one, in the next step's frame."""
+def _fall_back(robot: Robot, plan: StepPlan, settings: OCPSettings, warm: Solution) -> Solution:
+    """A step the warm start left unaccepted, solved again from the dataset's own initial guess,
+    as the dataset retries a step; the better accepted solution, with both solves' iterations
+    and time counted (``fallback``: whether the second solve was kept)."""
+    cold = cold_solve(robot, plan, settings)
+    kept = cold if cold.stats["converged"] else warm
+    for key in ("iterations", "solve_time_s"):
+        kept.stats[key] = warm.stats[key] + cold.stats[key]
+    kept.stats["fallback"] = kept is cold
+    return kept
+
+
+def _next_start(robot: Robot, solution: Solution) -> tuple[np.ndarray, np.ndarray]:
+    """The end of a solved step as the start of the next one, in the next step's frame: its
+    state and its last torques, from which the next step's torque rate is counted (so that
+    the torques stay smooth across the junction, as within a step)."""
     landed = landing_point(solution.plan.phases)
-    return mirror_state(robot, translate_state(robot, solution.xs[-1], -landed[0], -landed[1]))
+    last_torques = next(u for u in reversed(solution.us) if len(u))
+    return (mirror_state(robot, translate_state(robot, solution.xs[-1], -landed[0], -landed[1])),
+            mirror_joints(robot, last_torques))
 
 
 def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int | None = None) -> Solution:
@@ -251,6 +302,16 @@ def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int 
     return solve_warm(robot, plan, settings, initial_guess(robot, plan.phases, plan.x0, settings), None, budget)
 
 
-__all__ = ["RefinedWalk", "refine_walk", "step_guesses", "step_plan_from", "warm_start", "solve_warm", "cold_solve",
-           "torque_cost", "check_refinable"]
+__all__ = [
+    "RefinedWalk",
+    "check_refinable",
+    "cold_solve",
+    "refine_walk",
+    "solve_warm",
+    "step_guesses",
+    "step_plan_from",
+    "torque_cost",
+    "walk_guess",
+    "warm_start",
+]
 

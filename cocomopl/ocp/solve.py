@@ -76,9 +76,10 @@ def prepared_problem(
     us = quasi_static if us is None else [np.asarray(u) for u in us]
     solver_problem = problem
     if settings.w_torque_rate > 0:
-        # the torque before the first knot: holding the initial state quasi-statically
-        tau0 = quasi_static[0] if quasi_static is not None else problem.runningModels[0].quasiStatic(
-            problem.runningDatas[0], plan.x0)
+        tau0 = plan.tau0
+        if tau0 is None:  # holding the initial state quasi-statically
+            tau0 = quasi_static[0] if quasi_static is not None else problem.runningModels[0].quasiStatic(
+                problem.runningDatas[0], plan.x0)
         solver_problem = with_torque_rate(problem, tau0, settings.w_torque_rate / settings.dt)
         xs = _with_previous_torques(xs, us, tau0)
     return problem, crocoddyl.SolverBoxFDDP(solver_problem), xs, us
@@ -90,11 +91,12 @@ def solve_plan(
     settings: OCPSettings,
     guess: str | list[np.ndarray] = "kinematic",
     max_iterations: int | None = None,
+    controls: list[np.ndarray] | None = None,
 ) -> Solution:
     """Solve one plan with Crocoddyl's box-constrained FDDP from the initial states ``guess``
-    (:func:`initial_states`) and quasi-static controls."""
+    (:func:`initial_states`) and ``controls`` (None: quasi-static)."""
     xs_init = initial_states(robot, plan, settings, guess)
-    problem, solver, xs_init, us_init = prepared_problem(robot, plan, settings, xs_init)
+    problem, solver, xs_init, us_init = prepared_problem(robot, plan, settings, xs_init, controls)
     budget = max_iterations or settings.max_iterations
     start = time.perf_counter()
     iterations, converged, previous_cost = 0, False, np.inf
@@ -150,15 +152,9 @@ def _with_previous_torques(xs: list[np.ndarray], us: list[np.ndarray], tau0: np.
 WALK_STEPS = {"start": [0], "cyclic": [2], "stop": [3, 4, 5]}  # double-support phases of each spec
 
 
-def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.ndarray | None = None) -> Solution:
-    """A short walk at one step length -- start, two cyclic steps, stop -- from rest to rest.
-
-    A single cyclic step cannot be solved for its own start state with a DDP solver, whose
-    initial state is fixed; a walk settles into its gait by the second cyclic step, whose
-    start is the cyclic state ``S(L)``.  The walk's steps also warm-start the single-step
-    OCPs of the same length.  ``guess``: the states of a solved walk of a neighbouring length
-    with the same phase timing (continuation); None starts from the kinematic guess.
-    """
+def warm_up_plan(robot: Robot, length: float, settings: OCPSettings) -> StepPlan:
+    """The warm-up walk's problem at one step length: start, two cyclic steps, stop, from rest
+    to rest (right sole at the origin, left swinging first)."""
     separation = foot_separation(robot)
     x_rest = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
     specs = [
@@ -170,10 +166,28 @@ def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.n
     phases = walk_phases(specs, separation, settings)
     end_x = landing_point(phases)[0]
     x_end = robot.state_from_posture(double_support_posture(robot, (end_x, separation), (end_x, 0.0)))
+    return StepPlan(specs[0], phases, x_rest, x_end)
+
+
+def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.ndarray | None = None,
+                 controls: list[np.ndarray] | None = None) -> Solution:
+    """A short walk at one step length (:func:`warm_up_plan`), from rest to rest.
+
+    A single cyclic step cannot be solved for its own start state with a DDP solver, whose
+    initial state is fixed; a walk settles into its gait by the second cyclic step, whose
+    start is the cyclic state ``S(L)``.  The walk's steps also warm-start the single-step
+    OCPs of the same length.  ``guess``: states on the walk's knots, e.g. a solved walk of a
+    neighbouring length with the same phase timing (continuation) or the model's walk (a
+    grown length); None starts from the kinematic guess.  ``controls``: the guess's torques
+    (None: quasi-static); the model's walk at 230 mm took 75 iterations with its
+    torques, 200 (not converged) without, and the kinematic guess 90.
+    """
+    plan = warm_up_plan(robot, length, settings)
     # the walk only needs to settle into its gait, not to converge tightly
-    plan = StepPlan(specs[0], phases, x_rest, x_end)
-    start = list(guess) if guess is not None and len(guess) == state_count(phases) else "kinematic"
-    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, max_iterations=WALK_ITERATIONS)
+    fits = guess is not None and len(guess) == state_count(plan.phases)
+    start = list(guess) if fits else "kinematic"
+    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, WALK_ITERATIONS,
+                      controls if fits else None)
 
 
 def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
@@ -229,18 +243,28 @@ def solve_with_retries(
         attempts.append(record)
         if not solution.stats["converged"]:
             continue
-        # a converged penalty formulation can still sit in a poor local minimum that breaks
-        # a constraint: only a solution that passes the independent checks is accepted
-        limits = tolerances(settings.dt)
-        failed = violations(check_motion(robot, to_motion(robot, solution, settings), settings.friction), limits)
-        gap = target_error(robot, solution)
-        if gap > limits["continuity"]:
-            failed.append("continuity")
+        failed, gap = failed_checks(robot, solution, settings)
         record.update(failed_checks=failed, target_error=gap)
         if not failed:
             solution.stats["attempts"] = attempts
             return solution, attempts
     return None, attempts
+
+
+def failed_checks(robot: Robot, solution: Solution, settings: OCPSettings) -> tuple[list[str], float]:
+    """The independent checks a solved step fails, and its end's distance from its target.
+
+    A converged penalty formulation can still sit in a poor local minimum that breaks a
+    constraint, or stop on a plateau short of its end target: only a solution that passes
+    :func:`~cocomopl.analysis.feasibility.check_motion` and ends within the continuity
+    tolerance of its target is accepted.
+    """
+    limits = tolerances(settings.dt)
+    failed = violations(check_motion(robot, to_motion(robot, solution, settings), settings.friction), limits)
+    gap = target_error(robot, solution) if solution.plan.x_target is not None else 0.0
+    if gap > limits["continuity"]:
+        failed.append("continuity")
+    return failed, gap
 
 
 def length_steps(length: float) -> dict[str, StepSpec]:
@@ -259,6 +283,7 @@ def solve_length(
     kinds: tuple[str, ...] = ("cyclic", "start", "stop"),
     cyclic_start: np.ndarray | None = None,
     walk_guess: np.ndarray | None = None,
+    walk_controls: list[np.ndarray] | None = None,
 ) -> tuple[dict[str, Solution | None], dict]:
     """The cyclic, start and stop steps of one length, and the cyclic start state ``S(L)``.
 
@@ -268,7 +293,8 @@ def solve_length(
     of least cost (eq. 1 plus penalties) fixes the timing of this length's start and stop
     steps too.  ``cyclic_start`` is ``S(L)`` when the cyclic
     step is already solved (its timing is then that of ``settings``).  ``walk_guess`` warm-starts
-    the warm-up walk (:func:`warm_up_walk`): continuation from a neighbouring length.
+    the warm-up walk (:func:`warm_up_walk`; ``walk_controls`` its torques): continuation from a
+    neighbouring length, or the model's walk.
 
     Returns ``({kind: solution or None}, info)`` with ``info`` holding ``start_state``,
     ``durations`` (double, single support; s), ``duration_search``, ``attempts`` and ``walk``
@@ -284,7 +310,7 @@ def solve_length(
             ss = round(ss, 6)
             if ss not in tried:
                 opts = replace(settings, ss_duration=ss)
-                walk = warm_up_walk(robot, length, opts, walk_guess)
+                walk = warm_up_walk(robot, length, opts, walk_guess, walk_controls)
                 segment = walk_segment(robot, walk, "cyclic")
                 x0 = segment[0]
                 guesses = [segment, "kinematic", "static"]
@@ -299,7 +325,7 @@ def solve_length(
             return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
         solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
     else:
-        walk = warm_up_walk(robot, length, settings, walk_guess)
+        walk = warm_up_walk(robot, length, settings, walk_guess, walk_controls)
     states = {length: cyclic_start}
     for kind in kinds:
         if kind == "cyclic":
@@ -428,16 +454,17 @@ def target_error(robot: Robot, solution: Solution) -> float:
 
 __all__ = [
     "Solution",
-    "target_error",
     "length_steps",
     "solve_length",
-    "solve_with_retries",
-    "warm_up_walk",
-    "walk_segment",
     "solve_plan",
     "solve_step",
+    "solve_with_retries",
     "step_plan",
+    "target_error",
     "to_motion",
+    "walk_segment",
+    "warm_up_plan",
+    "warm_up_walk",
 ]
 
 

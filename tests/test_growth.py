@@ -1,0 +1,179 @@
+"""Growing a dataset: where the model is unsure, the baseline's even spread, the model's walk as
+a warm start, steps of the grown dataset kept as they were, and bad input."""
+
+import numpy as np
+import pytest
+
+from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
+from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
+from cocomopl.primitives.estimator import SAME_LENGTHS_M2
+from cocomopl.primitives.growth import (
+    candidate_lengths,
+    check_budget,
+    pick_uncertain,
+    pick_uniform,
+    variance_left,
+    weight_variance,
+)
+from cocomopl.primitives.model_file import load_model
+from cocomopl.primitives.training import step_lengths
+
+from conftest import SMALL, SMALL_LENGTH, assert_one_line_error, run_cli
+
+TRAINED = [0.15, 0.2, 0.25, 0.3, 0.35, 0.4]
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_model(BUNDLED_MODEL).prepare()
+
+
+def model_weight_variance(model, type_, z):
+    """The weight variance the model's own prediction computes (before its floor)."""
+    c = model._type_arrays(type_)
+    d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
+    b = c["alpha_w"] * np.exp(np.multiply.outer(d2, c["minus_gamma_w"])) + np.multiply.outer(d2 < SAME_LENGTHS_M2, c["nugget"])
+    return np.maximum(c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0), 0.0)
+
+
+@pytest.mark.parametrize("spec", [StepSpec("cyclic", 0.175, 0.175), StepSpec("start", 0.0, 0.33),
+                                  StepSpec("transition", 0.22, 0.27)])
+def test_with_nothing_added_the_variance_is_the_models_own(model, spec):
+    type_ = f"{spec.kind}_left"
+    z = step_lengths(spec)
+    prior = model._type_arrays(type_)["alpha_w"]
+    ours = weight_variance(model, type_, np.zeros((0, 2)), z).ravel()
+    # as fractions of the prior: the variance left is a difference of nearly equal numbers
+    np.testing.assert_allclose(ours / prior, model_weight_variance(model, type_, z) / prior, atol=1e-6)
+
+
+def test_adding_a_length_leaves_no_variance_more_anywhere_and_least_there(model):
+    grid = candidate_lengths(TRAINED)
+    before = np.array([variance_left(model, L, []) for L in grid])
+    after = np.array([variance_left(model, L, [0.27]) for L in grid])
+    assert np.all(after <= before + 1e-12)
+    # what is left there is the step's own variation about the smooth function (nugget and noise)
+    assert after[grid.index(0.27)] < 0.05 * before[grid.index(0.27)]
+    assert np.argmin(after) == grid.index(0.27)
+
+
+def test_candidates_lie_on_the_grid_inside_the_range_off_trained_and_held_out_lengths():
+    grid = candidate_lengths(TRAINED, exclude=[0.17, 0.175])
+    assert grid[0] == pytest.approx(0.16) and grid[-1] == pytest.approx(0.39)
+    assert not any(np.isclose(grid, x).any() for x in [*TRAINED, 0.17])
+    assert np.allclose(np.round(np.array(grid) / 0.01), np.array(grid) / 0.01)
+
+
+def test_greedy_picks_are_distinct_and_each_no_more_certain_than_the_next(model):
+    picks = pick_uncertain(model, TRAINED, 4)
+    lengths, scores = zip(*picks)
+    assert len(set(lengths)) == 4
+    # the variance only falls as lengths are added, so each pick's score bounds the next one's
+    assert np.all(np.diff(scores) <= 1e-12)
+    assert picks == pick_uncertain(model, TRAINED, 4)
+
+
+def test_the_uniform_baseline_spreads_its_lengths_evenly():
+    assert pick_uniform(TRAINED, 2) == pytest.approx([0.23, 0.32])
+    assert pick_uniform(TRAINED, 2, exclude=[0.23]) == pytest.approx([0.24, 0.32])
+
+
+@pytest.mark.parametrize(("budget", "words"), [(0, "at least 1"), (-2, "at least 1"), (21, "at most 20"),
+                                               (1.5, "whole number"), (True, "whole number")])
+def test_a_budget_it_cannot_spend_is_refused(budget, words):
+    with pytest.raises(Error, match=words):
+        check_budget(budget, TRAINED)
+
+
+def test_the_models_walk_lies_on_the_warm_up_walks_knots_from_rest_to_its_footsteps(robot):
+    import pinocchio as pin
+
+    from cocomopl.gait import foot_separation
+    from cocomopl.ocp.problems import landing_point, state_count
+    from cocomopl.ocp.refine import walk_guess, warm_start
+    from cocomopl.ocp.settings import OCPSettings
+    from cocomopl.ocp.solve import warm_up_plan
+    from cocomopl.pipeline import generate_walk
+
+    settings, length = OCPSettings(), 0.23
+    plan = warm_up_plan(robot, length, settings)
+    xs, us = warm_start(walk_guess(robot, generate_walk([length] * 4).motion), plan.phases, plan.x0, settings.dt)
+    assert len(xs) == state_count(plan.phases) and len(us) == len(xs) - 1
+    np.testing.assert_array_equal(xs[0], plan.x0)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, xs[-1][: robot.model.nq])
+    end, separation = landing_point(plan.phases)[0], foot_separation(robot)
+    for side, y in (("right", 0.0), ("left", separation)):  # a stop ends with the feet side by side
+        np.testing.assert_allclose(data.oMf[robot.foot_frames[side]].translation[:2], [end, y], atol=0.01, err_msg=side)
+
+
+def test_steps_known_from_the_dataset_being_grown_are_not_solved_again(small_dataset, tmp_path):
+    from cocomopl.dataset.generate import generate
+    from cocomopl.motion_file import read_motions
+
+    motions, _ = read_motions(small_dataset, dataset=True)
+    known = {m.steps[0]: m for m in motions.values() if m.steps[0].swing_side == "left"}
+    summary = generate(tmp_path / "again.h5", (SMALL_LENGTH,), settings=SMALL, workers=1, progress=False, known=known,
+                       record={"grown": {"picked_mm": []}})
+    assert summary["solved"] == 0 and summary["failed"] == []
+    again, attrs = read_motions(tmp_path / "again.h5", dataset=True)
+    assert sorted(again) == sorted(motions) and attrs["grown"] == {"picked_mm": []}
+    for name, motion in motions.items():
+        np.testing.assert_array_equal(again[name].q, motion.q)
+
+
+@pytest.mark.parametrize("budget", ["0", "1000000"])
+def test_a_bad_budget_gets_one_line_and_writes_nothing(tmp_path, budget):
+    out = tmp_path / "grown.h5"
+    assert_one_line_error(run_cli("dataset", "grow", "--budget", budget, "--out", str(out)), "budget")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_held_out_steps_that_are_not_probes_are_refused(tmp_path):
+    out = tmp_path / "grown.h5"
+    result = run_cli("dataset", "grow", "--budget", "1", "--held-out", str(BUNDLED_DATASET), "--out", str(out))
+    assert_one_line_error(result, "held-out steps")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_missing_model_file_is_refused(small_dataset, tmp_path):
+    out = tmp_path / "grown.h5"
+    result = run_cli("dataset", "grow", str(small_dataset), "--model", str(tmp_path / "missing.npz"), "--budget", "1",
+                     "--out", str(out))
+    assert_one_line_error(result, "missing.npz")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_model_of_another_robot_is_refused_before_any_solving(tmp_path):
+    from cocomopl.primitives.model_file import save_model
+
+    other = tmp_path / "other.npz"
+    model = load_model(BUNDLED_MODEL)
+    save_model(other, model, {**model.metadata_, "robot": "romeo"})
+    out = tmp_path / "grown.h5"
+    assert_one_line_error(run_cli("dataset", "grow", "--model", str(other), "--budget", "1", "--out", str(out)),
+                          "not trained on")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.npz"]
+
+
+def test_the_neighbours_oc_walk_lies_on_the_warm_up_walks_knots(robot, small_dataset):
+    """Continuation's guess: the dataset's start, cyclic and stop steps of a trained length,
+    chained, mapped onto the knots of the warm-up walk of a new length."""
+    import pinocchio as pin
+
+    from cocomopl.jobs import _neighbour_walk
+    from cocomopl.motion_file import read_motions
+    from cocomopl.ocp.problems import landing_point, state_count
+    from cocomopl.ocp.solve import warm_up_plan
+
+    motions, attrs = read_motions(small_dataset, dataset=True)
+    xs, us = _neighbour_walk(robot, motions, attrs["settings"], SMALL_LENGTH, SMALL_LENGTH, SMALL)
+    plan = warm_up_plan(robot, SMALL_LENGTH, SMALL)
+    assert len(xs) == state_count(plan.phases) and len(us) == len(xs) - 1
+    np.testing.assert_array_equal(xs[0], plan.x0)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, xs[-1][: robot.model.nq])
+    # the same length: the chained OC steps end exactly where the warm-up walk must
+    end = landing_point(plan.phases)[0]
+    np.testing.assert_allclose(data.oMf[robot.foot_frames["right"]].translation[:2], [end, 0.0], atol=1e-3)
