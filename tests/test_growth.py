@@ -65,6 +65,17 @@ def test_candidates_lie_on_the_grid_inside_the_range_off_trained_and_held_out_le
     assert np.allclose(np.round(np.array(grid) / 0.01), np.array(grid) / 0.01)
 
 
+def test_the_first_pick_is_where_the_model_is_least_certain(model):
+    grid = candidate_lengths(TRAINED)
+    scores = [variance_left(model, L, []) for L in grid]
+    (first, score), = pick_uncertain(model, TRAINED, 1)
+    assert first == grid[int(np.argmax(scores))] and score == pytest.approx(max(scores))
+    # and the second is where the most is left once the first is known
+    (_, _), (second, _) = pick_uncertain(model, TRAINED, 2)
+    left = {L: variance_left(model, L, [first]) for L in grid if L != first}
+    assert second == max(left, key=left.get)
+
+
 def test_greedy_picks_are_distinct_and_each_no_more_certain_than_the_next(model):
     picks = pick_uncertain(model, TRAINED, 4)
     lengths, scores = zip(*picks)
