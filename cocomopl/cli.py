@@ -497,6 +497,7 @@ def _dataset_parsers(sub) -> None:
     from cocomopl.dataset.generate import DT_RANGE_S, MIN_PHASE_KNOTS, WORKERS_PER_CORE
     from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_LENGTHS_M
     from cocomopl.ocp.settings import OCPSettings
+    from cocomopl.primitives.growth import WARM_STARTS
     from cocomopl.robot import DEFAULT_ROBOT
 
     defaults = OCPSettings()
@@ -569,7 +570,7 @@ def _dataset_parsers(sub) -> None:
                       "neighbours (7 OCPs)")
     grow.add_argument("--uniform", action="store_true",
                       help="spread the new lengths evenly instead (the baseline growth is compared with)")
-    grow.add_argument("--warm-start", choices=("model", "neighbour"), default="model",
+    grow.add_argument("--warm-start", choices=WARM_STARTS, default="model",
                       help="start each new length's warm-up walk from the model's walk, or from the dataset's OC walk "
                       "at the nearest trained length (continuation) (default: %(default)s)")
     grow.add_argument("--held-out", metavar="PROBES.h5",

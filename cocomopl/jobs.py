@@ -192,19 +192,21 @@ def grow_dataset(
 
     Each new length's cyclic, start and stop steps and its transitions to its neighbours are
     solved as ``dataset generate`` solves them (resumably, locally or on Dask at
-    ``scheduler``), the warm-up walk warm-started from the model's walk at that length (``warm_start``
-    "model") or from the dataset's OC walk at the nearest trained length ("neighbour",
-    continuation).  The
-    held-out steps are those of ``held_out`` (saved by ``dataset family --probes-out``), or,
-    by default, solved at the midpoints of the dataset's lengths; no length is picked among them.
+    ``scheduler``), the warm-up walk warm-started from the model's walk at that length
+    (``warm_start`` "model") or from the dataset's OC walk at the nearest trained length
+    ("neighbour", continuation).  The held-out steps are those of ``held_out`` (saved by
+    ``dataset family --probes-out``), or, by default, solved at the midpoints of the dataset's
+    lengths; no length is picked among them.
     """
     from cocomopl.dataset.generate import check_workers, generate
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
-    from cocomopl.primitives.growth import check_budget, pick_uncertain, pick_uniform, variance_left
+    from cocomopl.primitives.growth import WARM_STARTS, check_budget, pick_uncertain, pick_uniform, variance_left
     from cocomopl.primitives.model_file import load_model
     from cocomopl.primitives.training import load_training_steps
 
+    if warm_start not in WARM_STARTS:
+        raise Error(f"the warm start must be one of {', '.join(WARM_STARTS)}, not {warm_start!r}")
     require_extra("jax", "train", "cocomopl dataset grow")
     data, model = dataset_path(data), model_path(model)
     training, attrs, primitives, robot, trained = _trained_model(data, model)

@@ -188,3 +188,10 @@ def test_the_neighbours_oc_walk_lies_on_the_warm_up_walks_knots(robot, small_dat
     # the same length: the chained OC steps end exactly where the warm-up walk must
     end = landing_point(plan.phases)[0]
     np.testing.assert_allclose(data.oMf[robot.foot_frames["right"]].translation[:2], [end, 0.0], atol=1e-3)
+
+
+def test_an_unknown_warm_start_is_refused():
+    from cocomopl.jobs import grow_dataset
+
+    with pytest.raises(Error, match="warm start must be one of model, neighbour"):
+        grow_dataset("never.h5", budget=1, warm_start="kinematic")
