@@ -27,7 +27,6 @@ from cocomopl.primitives.estimator import SAME_LENGTHS_M2, MovementPrimitives
 from cocomopl.primitives.training import step_lengths, step_type
 
 GRID_M = 0.01  # candidate lengths lie on this grid, strictly between the trained ones
-KINDS = ("cyclic", "start", "stop")
 MAX_BUDGET = 20  # lengths one run adds: each brings 7 OCPs (three steps, four transitions)
 WARM_STARTS = ("model", "neighbour")  # what a new length's warm-up walk starts from (cocomopl.jobs.grow_dataset)
 
