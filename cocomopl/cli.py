@@ -493,6 +493,12 @@ def _synthesis_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strict", action="store_true", help="refuse steps outside the training data's support")
 
 
+def _dataset_and_model_options(parser: argparse.ArgumentParser) -> None:
+    """A dataset and the model trained on it, both the bundled ones by default."""
+    parser.add_argument("file", nargs="?", metavar="FILE.h5", help="dataset HDF5 file (default: the bundled one)")
+    parser.add_argument("--model", metavar="MODEL.npz", help="model trained on it (default: the bundled one)")
+
+
 def _dataset_parsers(sub) -> None:
     from cocomopl.dataset.generate import DT_RANGE_S, MIN_PHASE_KNOTS, WORKERS_PER_CORE
     from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_LENGTHS_M
@@ -550,8 +556,7 @@ def _dataset_parsers(sub) -> None:
 
     family = dataset.add_parser("family", help="solve steps between the trained lengths and measure how far they lie "
                                 "from the model's predictions and from linear interpolation, per joint group")
-    family.add_argument("file", nargs="?", metavar="FILE.h5", help="dataset HDF5 file (default: the bundled one)")
-    family.add_argument("--model", metavar="MODEL.npz", help="model trained on it (default: the bundled one)")
+    _dataset_and_model_options(family)
     family.add_argument("--lengths-mm", type=_training_lengths_mm, metavar="MM,MM,...",
                         help="step lengths in millimetres to solve at, strictly between the dataset's (default: the "
                         "midpoints of its lengths)")
@@ -563,8 +568,7 @@ def _dataset_parsers(sub) -> None:
 
     grow = dataset.add_parser("grow", help="add the step lengths where the model is least certain, solve them, "
                               "retrain, and measure the model on held-out steps before and after")
-    grow.add_argument("file", nargs="?", metavar="FILE.h5", help="dataset HDF5 file (default: the bundled one)")
-    grow.add_argument("--model", metavar="MODEL.npz", help="model trained on it (default: the bundled one)")
+    _dataset_and_model_options(grow)
     grow.add_argument("--budget", type=int, required=True, metavar="N",
                       help="step lengths to add, each with its cyclic, start and stop steps and transitions to its "
                       "neighbours (7 OCPs)")

@@ -89,19 +89,20 @@ def check_dataset_file(path: str | Path | None = None, verbose: bool = False) ->
 
 
 def _trained_model(path: Path, model: Path):
-    """The training steps of the dataset ``path``, its attributes, the model ``model`` trained on its
-    robot's signals, the robot and its trained lengths (m); an :class:`Error` if the model is another robot's."""
+    """The training steps of the dataset ``path``, its motions by name and attributes, the model
+    ``model`` trained on its robot's signals, the robot and its trained lengths (m); an
+    :class:`Error` if the model is another robot's."""
     from cocomopl.primitives.model_file import load_model
     from cocomopl.primitives.training import load_training_steps
 
     training = load_training_steps(path)
-    _, attrs = read_motions(path, dataset=True)
+    dataset, attrs = read_motions(path, dataset=True)
     primitives = load_model(model).prepare()
     robot = load_robot(training.source["robot"])
     if list(primitives.signal_names) != list(training.signal_names) or primitives.metadata_.get("robot", robot.name) != robot.name:
         raise Error(f"{model} was not trained on {robot.name}'s signals, those of {path}")
     trained = sorted({s.start_length for s in training.specs if s.kind == "cyclic"})
-    return training, attrs, primitives, robot, trained
+    return training, dataset, attrs, primitives, robot, trained
 
 
 def _check_probe_lengths(lengths: list[float], trained: list[float]) -> list[float]:
@@ -155,10 +156,10 @@ def check_family_file(
     from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
 
     path, model = dataset_path(path), model_path(model)
-    training, attrs, primitives, robot, trained = _trained_model(path, model)
+    training, _, attrs, primitives, robot, trained = _trained_model(path, model)
     lengths = _check_probe_lengths(probe_lengths(trained) if lengths is None else lengths, trained)
     if probes_out is not None:
-        probes_out = output_file(probes_out, "probes.h5", inputs=[path, model])
+        probes_out = output_file(probes_out, "probes.h5", inputs=[path, model], option="--probes-out")
     workers = min(check_workers(workers) if workers else (os.cpu_count() or 1), len(lengths))
     started = time.perf_counter()
     solved, failed = _solve_probes(robot.name, attrs["settings"], lengths, workers, progress)
@@ -209,9 +210,9 @@ def grow_dataset(
         raise Error(f"the warm start must be one of {', '.join(WARM_STARTS)}, not {warm_start!r}")
     require_extra("jax", "train", "cocomopl dataset grow")
     data, model = dataset_path(data), model_path(model)
-    training, attrs, primitives, robot, trained = _trained_model(data, model)
-    probes = None if held_out is None else _read_probes(held_out, robot, attrs, trained)
-    held_lengths = probe_lengths(trained) if probes is None else sorted({s.start_length or s.end_length for s in probes})
+    training, dataset, attrs, primitives, robot, trained = _trained_model(data, model)
+    probes, held_lengths = (None, probe_lengths(trained)) if held_out is None else _read_probes(held_out, robot, attrs,
+                                                                                                trained)
     check_budget(budget, trained, held_lengths)
     out = output_file(out, "grown.h5", inputs=[data, model, held_out], beside=(".npz", ".png"))
     workers = check_workers(workers) if workers else (os.cpu_count() or 1)
@@ -223,7 +224,6 @@ def grow_dataset(
     else:
         picked = [L for L, _ in pick_uncertain(primitives, trained, budget, held_lengths)]
     settings = OCPSettings.from_saved(attrs["settings"])
-    dataset, _ = read_motions(data, dataset=True)
     if warm_start == "model":
         guesses = {L: _model_walk(robot, model, L, settings) for L in picked}
     else:
@@ -281,17 +281,17 @@ def _on_warm_up_knots(robot, walk, length: float, settings) -> tuple[np.ndarray,
     return np.array(xs), us
 
 
-def _read_probes(path: str | Path, robot, attrs: dict, trained: list[float]) -> dict:
-    """The held-out steps of a ``dataset family --probes-out`` file, by spec; an :class:`Error` unless
-    they were solved for ``robot`` with the dataset's settings (``attrs``) between its lengths."""
+def _read_probes(path: str | Path, robot, attrs: dict, trained: list[float]) -> tuple[dict, list[float]]:
+    """The held-out steps of a ``dataset family --probes-out`` file, by spec, and their lengths (m);
+    an :class:`Error` unless they were solved for ``robot`` with the dataset's settings
+    (``attrs``) between its lengths."""
     motions, probe_attrs = read_motions(path, robot=robot)
     if probe_attrs.get("content") != "probes":
         raise Error(f"{path}: it is not a file of held-out steps (from 'cocomopl dataset family --probes-out')")
     if probe_attrs.get("settings") != attrs["settings"]:
         raise Error(f"{path}: its steps were solved with other OCP settings than the dataset's")
     probes = {m.steps[0]: m for m in motions.values()}
-    _check_probe_lengths([s.start_length or s.end_length for s in probes], trained)
-    return probes
+    return probes, _check_probe_lengths([s.start_length or s.end_length for s in probes], trained)
 
 
 # ---------------------------------------------------------------------------- stage 2

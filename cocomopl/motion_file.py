@@ -81,7 +81,8 @@ def writable_place(folder: Path, purpose: str) -> Path:
     return folder
 
 
-def check_output(path: str | Path, inputs=(), *, folder: bool = False, given: str | Path | None = None) -> str | None:
+def check_output(path: str | Path, inputs=(), *, folder: bool = False, given: str | Path | None = None,
+                 option: str = "--out") -> str | None:
     """Refuse, before any work, an output that must not be written, and say what it replaces.
 
     Parameters
@@ -90,6 +91,7 @@ def check_output(path: str | Path, inputs=(), *, folder: bool = False, given: st
     inputs : the files the command reads (None entries are skipped); none may be replaced
     folder : ``path`` is a report folder, replaced as a whole (see :func:`report_folder`)
     given : the ``--out`` the user gave, for the messages (default: ``path``)
+    option : the command-line option that names ``path``, for the messages
 
     Returns
     -------
@@ -106,7 +108,7 @@ def check_output(path: str | Path, inputs=(), *, folder: bool = False, given: st
     path = Path(path)
     for source in (Path(s) for s in inputs if s is not None):
         if _replaces(path, source):
-            raise Error(f"--out {Path(given or path)} would replace the input {source}")
+            raise Error(f"{option} {Path(given or path)} would replace the input {source}")
     if not path.exists():
         return None
     return _replaced_report(path) if folder else _replaced_file(path)
@@ -163,16 +165,18 @@ def _report_files(folder: Path) -> set[str] | None:
         return None
 
 
-def output_file(path: str | Path, example_name: str, inputs=(), beside: tuple[str, ...] = ()) -> Path:
+def output_file(path: str | Path, example_name: str, inputs=(), beside: tuple[str, ...] = (),
+                option: str = "--out") -> Path:
     """``path`` as an output file, checked by :func:`check_output` against ``inputs``, with the files of suffixes
     ``beside`` written next to it (``train``'s ".png"), before any work: an :class:`Error` if it is a directory
-    (naming ``example_name`` as a file to give instead), may not be replaced, or its folder cannot be written."""
+    (naming ``example_name`` as a file to give instead), may not be replaced, or its folder cannot be written.
+    ``option`` names the command-line option that gave ``path`` in the messages."""
     path = Path(path)
     if path.is_dir():
-        raise Error(f"--out {path} is a directory; give a file path such as {path / example_name}")
+        raise Error(f"{option} {path} is a directory; give a file path such as {path / example_name}")
     for target in (path, *(path.with_suffix(suffix) for suffix in beside)):
-        check_output(target, inputs, given=path)
-    writable_place(path.parent, f"the folder of --out {path}")
+        check_output(target, inputs, given=path, option=option)
+    writable_place(path.parent, f"the folder of {option} {path}")
     return path
 
 

@@ -74,3 +74,9 @@ def test_joint_groups_split_the_joints(robot, split):
 @pytest.mark.parametrize("lengths", ["150", "100", "175,450"])
 def test_probe_lengths_off_the_trained_range_get_one_line(lengths):
     assert_one_line_error(run_cli("dataset", "family", "--lengths-mm", lengths), "between")
+
+
+def test_a_probes_file_that_cannot_be_written_gets_one_line_naming_its_option(tmp_path):
+    result = run_cli("dataset", "family", "--lengths-mm", "175", "--probes-out", str(tmp_path))
+    assert_one_line_error(result, "--probes-out", "is a directory")
+    assert list(tmp_path.iterdir()) == []
