@@ -32,6 +32,58 @@ def foot_separation(robot: Robot) -> float:
     return round(float(left[1] - right[1]), 4)
 
 
+def footstep_pose(other: np.ndarray, side: str, length: float, width: float, turn: float,
+                  separation: float) -> np.ndarray:
+    """Where sole ``side`` lands, (x, y, yaw), taking the footstep (length, width, turn) from
+    the other sole at pose ``other`` (:class:`~cocomopl.motion.StepSpec` says how a footstep
+    is measured); ``separation``: the soles' nominal lateral distance (m)."""
+    sign = 1.0 if side == "left" else -1.0
+    dx, dy = length, sign * (separation + width)
+    c, s = math.cos(other[2]), math.sin(other[2])
+    return np.array([other[0] + c * dx - s * dy, other[1] + s * dx + c * dy, other[2] + sign * turn])
+
+
+def footstep_origin(landed: np.ndarray, side: str, length: float, width: float, turn: float,
+                    separation: float) -> np.ndarray:
+    """The pose of the sole that sole ``side`` took the footstep (length, width, turn) from,
+    given where it ``landed``: the inverse of :func:`footstep_pose`."""
+    sign = 1.0 if side == "left" else -1.0
+    yaw = landed[2] - sign * turn
+    dx, dy = length, sign * (separation + width)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([landed[0] - (c * dx - s * dy), landed[1] - (s * dx + c * dy), yaw])
+
+
+# What a footstep may ask of the robot (length, width in m; turn in rad).  Backward steps
+# are shorter than forward ones: the swing leg passes behind the hip, where the knee cannot
+# help.  Outward, 150 mm beyond the nominal separation keeps the stance hip's abduction
+# within its limits.  Inward steps and turns are bounded by the feet themselves:
+# ``check_footstep`` refuses a footstep whose soles come closer than ``FEET_GAP``.
+FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.15), "turn": (-math.radians(25), math.radians(25))}
+FEET_GAP = 0.01  # m between the feet's meshes, both flat on the ground
+
+
+def check_footstep(robot: Robot, side: str, length: float, width: float, turn: float) -> None:
+    """An :class:`Error` unless sole ``side`` may land at the footstep (length, width, turn)
+    from the other: within ``FOOTSTEP_RANGE`` and with the feet's meshes ``FEET_GAP`` apart."""
+    from cocomopl.kinematics import flat_placement, soles_distance
+
+    asked = {"length": length, "width": width, "turn": turn}
+    for key, value in asked.items():
+        low, high = FOOTSTEP_RANGE[key]
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
+            unit, scale = ("deg", math.degrees(1)) if key == "turn" else ("mm", 1000)
+            raise Error(f"footstep {key} {value * scale:g} {unit} is outside {low * scale:g}..{high * scale:g} {unit}")
+    landed = footstep_pose(np.zeros(3), side, length, width, turn, foot_separation(robot))
+    other = OTHER_SIDE[side]
+    gap = soles_distance(robot, {other: flat_placement(0.0, 0.0, 0.0), side: flat_placement(*landed)})
+    if gap < FEET_GAP:
+        raise Error(
+            f"footstep ({length * 1000:g} mm, width {width * 1000:g} mm, turn {math.degrees(turn):g} deg) puts the "
+            f"{side} foot {max(gap, 0.0) * 1000:.0f} mm from the {other} one (at least {FEET_GAP * 1000:g} mm)"
+        )
+
+
 def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
     """Where each sole stands at each step's start and end, world frame (x forward, z up)."""
     y = foot_separation(robot) / 2

@@ -33,8 +33,10 @@ def double_support_posture(
     left_xy: tuple[float, float],
     right_xy: tuple[float, float],
     com_xy: tuple[float, float] | None = None,
+    yaws: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:
-    """A posture with both soles flat on the ground at the given (x, y) positions.
+    """A posture with both soles flat on the ground at the given (x, y) positions, turned by
+    ``yaws`` = (left, right) (rad).
 
     The CoM is placed horizontally at ``com_xy`` (default: midway between the feet).
 
@@ -45,21 +47,28 @@ def double_support_posture(
     """
     if com_xy is None:
         com_xy = (0.5 * (left_xy[0] + right_xy[0]), 0.5 * (left_xy[1] + right_xy[1]))
-    feet = {side: np.array([xy[0], xy[1], 0.0]) for side, xy in (("left", left_xy), ("right", right_xy))}
+    if yaws == (0.0, 0.0):
+        feet = {side: np.array([xy[0], xy[1], 0.0]) for side, xy in (("left", left_xy), ("right", right_xy))}
+    else:
+        feet = {side: flat_placement(xy[0], xy[1], yaw) for side, xy, yaw in (("left", left_xy, yaws[0]),
+                                                                              ("right", right_xy, yaws[1]))}
     q = robot.q_ref.copy()
     q[0:2] = com_xy
+    if yaws != (0.0, 0.0):  # start the base facing between the feet
+        q[3:7] = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, 0.5 * (yaws[0] + yaws[1]))).coeffs()
     return inverse_kinematics(robot, feet, com_xy, q)
 
 
 def inverse_kinematics(
     robot: Robot,
-    feet: dict[str, np.ndarray],
+    feet: dict[str, np.ndarray | pin.SE3],
     com_xy: tuple[float, float],
     q_init: np.ndarray,
     iterations: int = 200,
     check: bool = True,
 ) -> np.ndarray:
-    """A posture with flat soles at the positions ``feet[side]`` (3,) and the CoM above ``com_xy``.
+    """A posture with the soles at ``feet[side]``, a position (3,) of a sole kept level and
+    straight ahead or a placement, and the CoM above ``com_xy``.
 
     Damped Gauss-Newton on the tasks; the remaining joints (arms, head, base height) are
     pulled towards the reference posture in the tasks' null space.
@@ -71,7 +80,8 @@ def inverse_kinematics(
     With ``check=False`` the best effort is returned (a warm start need not be exact).
     """
     model, data = robot.model, robot.model.createData()
-    targets = {robot.foot_frames[side]: pin.SE3(np.eye(3), np.asarray(p, dtype=float)) for side, p in feet.items()}
+    targets = {robot.foot_frames[side]: p if isinstance(p, pin.SE3) else pin.SE3(np.eye(3), np.asarray(p, dtype=float))
+               for side, p in feet.items()}
     q = q_init.copy()
     step_ref = 0.1
     for _ in range(iterations):
@@ -101,7 +111,7 @@ def inverse_kinematics(
     n_foot_rows = 6 * len(feet)
     if check and np.abs(r[:n_foot_rows]).max() > 1e-4:
         raise Error(
-            f"robot {robot.name!r} cannot place its feet at {[[round(float(c), 3) for c in p] for p in feet.values()]} "
+            f"robot {robot.name!r} cannot place its feet at {[[round(float(c), 3) for c in t.translation] for t in targets.values()]} "
             f"(foot placement error {np.abs(r[:n_foot_rows]).max():.3f} m)"
         )
     return q
@@ -164,3 +174,40 @@ def check_reach(robot: Robot, lengths) -> None:
             f"step length {longest * 1000:g} mm is beyond {robot.name}'s reach "
             f"(at most {robot.max_step_length * 1000:g} mm, from its description)"
         )
+
+
+def feet_geometry(robot: Robot) -> pin.GeometryModel:
+    """The meshes of the two links that carry the soles, each left mesh paired with each right one."""
+    visual = robot.visual_model()
+    feet = pin.GeometryModel()
+    ids = {}
+    for side in SIDES:
+        joint = robot.model.frames[robot.foot_frames[side]].parentJoint
+        meshes = [g for g in visual.geometryObjects if g.parentJoint == joint]
+        if not meshes:
+            raise Error(f"robot {robot.name!r} has no mesh on its {side} foot to check the feet against each other")
+        ids[side] = [feet.addGeometryObject(g) for g in meshes]
+    for a in ids[SIDES[0]]:
+        for b in ids[SIDES[1]]:
+            feet.addCollisionPair(pin.CollisionPair(a, b))
+    return feet
+
+
+def flat_placement(x: float, y: float, yaw: float) -> pin.SE3:
+    """A sole's placement flat on the ground at (x, y), turned by ``yaw`` (rad) about the
+    vertical (exactly level and straight ahead at yaw 0)."""
+    rotation = np.eye(3) if yaw == 0.0 else pin.utils.rpyToMatrix(0.0, 0.0, yaw)
+    return pin.SE3(rotation, np.array([x, y, 0.0]))
+
+
+def soles_distance(robot: Robot, placements: dict[str, pin.SE3]) -> float:
+    """Smallest 3-D distance (m; negative where they overlap) between the two feet's meshes
+    with the soles at ``placements[side]``."""
+    feet = feet_geometry(robot)
+    geometry_data = pin.GeometryData(feet)
+    for g, geometry in enumerate(feet.geometryObjects):
+        side = next(s for s in SIDES if robot.model.frames[robot.foot_frames[s]].parentJoint == geometry.parentJoint)
+        sole_in_joint = robot.model.frames[robot.foot_frames[side]].placement
+        geometry_data.oMg[g] = placements[side] * sole_in_joint.inverse() * geometry.placement
+    pin.computeDistances(feet, geometry_data)
+    return min(r.min_distance for r in geometry_data.distanceResults)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -11,23 +12,40 @@ STEP_KINDS = ("start", "cyclic", "transition", "stop")
 
 @dataclass(frozen=True)
 class StepSpec:
-    """One step: its kind, the step length before and after it (m), and the swinging foot.
+    """One step: its kind, the footstep before and after it, and the swinging foot.
 
     Step length is the distance between the feet along the walking direction at double
     support.  A start step begins with the feet together (``start_length == 0``); a stop
     ends with them together (``end_length == 0``).
+
+    A footstep is where a sole lands relative to the other sole, in that sole's frame, as
+    (length, width, turn): ``length`` forward (m; negative is backward), ``width`` sideways
+    beyond the robot's nominal foot separation (m; positive is outward, away from the other
+    sole) and ``turn`` its yaw (rad; positive turns the toes outward, away from the other
+    sole).  Width and turn are measured from the side of the sole that lands, so a mirrored
+    step has the same numbers and turns and side-steps the other way.  The ``end_*`` footstep
+    is where this step's swing sole lands; the ``start_*`` footstep is the one before, where
+    the stance sole landed relative to the swing sole (the previous step's ``end_*``).  A
+    straight step has zero width and turn, as every step before omnidirectional walking.
     """
 
     kind: str
     start_length: float
     end_length: float
     swing_side: str = "left"
+    start_width: float = 0.0
+    end_width: float = 0.0
+    start_turn: float = 0.0
+    end_turn: float = 0.0
 
     def __post_init__(self):
         if self.kind not in STEP_KINDS:
             raise ValueError(f"step kind must be one of {STEP_KINDS}, not {self.kind!r}")
         if self.swing_side not in ("left", "right"):
             raise ValueError(f"swing side must be 'left' or 'right', not {self.swing_side!r}")
+        numbers = (self.start_length, self.end_length, *self.omni_parameters())
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in numbers):
+            raise ValueError(f"step lengths, widths and turns must be finite numbers, not {numbers}")
 
     @property
     def name(self) -> str:
@@ -40,10 +58,36 @@ class StepSpec:
             lengths = f"{mm[0]}"
         else:
             lengths = f"{mm[0]}_{mm[1]}"
-        return f"{self.kind}_{lengths}_{side}"
+        return f"{self.kind}_{lengths}{self._omni_suffix()}_{side}"
+
+    @property
+    def straight(self) -> bool:
+        """Whether both footsteps are straight ahead at the nominal width."""
+        return not any(self.omni_parameters())
+
+    def omni_parameters(self) -> tuple[float, float, float, float]:
+        """(start width, end width, start turn, end turn): what a straight step has as zeros."""
+        return (self.start_width, self.end_width, self.start_turn, self.end_turn)
+
+    def _omni_suffix(self) -> str:
+        """``w<start>_<end>t<start>_<end>`` in mm and degrees, for a step that is not straight."""
+        if self.straight:
+            return ""
+        widths = [round(1000 * w) for w in (self.start_width, self.end_width)]
+        turns = [round(math.degrees(a), 1) for a in (self.start_turn, self.end_turn)]
+        return f"_w{widths[0]}_{widths[1]}_t{turns[0]:g}_{turns[1]:g}"
+
+    def as_dict(self) -> dict:
+        """The step as plain data; a straight step without the omnidirectional fields, so that
+        it is written exactly as before they existed."""
+        out = asdict(self)
+        if self.straight:
+            for key in ("start_width", "end_width", "start_turn", "end_turn"):
+                del out[key]
+        return out
 
     def mirrored(self) -> "StepSpec":
-        return StepSpec(self.kind, self.start_length, self.end_length, "right" if self.swing_side == "left" else "left")
+        return replace(self, swing_side="right" if self.swing_side == "left" else "left")
 
 
 @dataclass

@@ -363,7 +363,7 @@ def write_motion_group(group: h5py.Group, motion: Motion, signals: dict | None =
     group.create_dataset("phase_last", data=np.array([p[2] for p in motion.phases], dtype=int))
     group.attrs["robot"] = motion.robot
     group.attrs["joint_names"] = json.dumps(list(motion.joint_names))
-    group.attrs["steps"] = json.dumps([vars(s) for s in motion.steps])
+    group.attrs["steps"] = json.dumps([s.as_dict() for s in motion.steps])
     group.attrs["meta"] = json.dumps(motion.meta)
     if signals is not None:
         sig = group.create_group("signals")

@@ -16,9 +16,8 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.analysis.feasibility import polygon_margin, support_polygon
-from cocomopl.dynamics import SIDES
-from cocomopl.errors import Error
 from cocomopl.export.grid import GridMotion, configurations, finite_differences, joint_torques
+from cocomopl.kinematics import feet_geometry
 from cocomopl.robot import Robot
 
 POSITION_TOLERANCE = 1e-3  # rad beyond a joint limit
@@ -45,23 +44,6 @@ def zmp_margin(robot: Robot, grid: GridMotion, q: np.ndarray) -> dict:
         margins[k] = polygon_margin(support_polygon(robot, q[k], grid.contact[k] > 0.5), world[:2])
     k = int(np.argmin(margins))
     return {"value": float(margins[k]), "t": float(grid.t[k])}
-
-
-def feet_geometry(robot: Robot) -> pin.GeometryModel:
-    """The meshes of the two links that carry the soles, each left mesh paired with each right one."""
-    visual = robot.visual_model()
-    feet = pin.GeometryModel()
-    ids = {}
-    for side in SIDES:
-        joint = robot.model.frames[robot.foot_frames[side]].parentJoint
-        meshes = [g for g in visual.geometryObjects if g.parentJoint == joint]
-        if not meshes:
-            raise Error(f"robot {robot.name!r} has no mesh on its {side} foot to check the feet against each other")
-        ids[side] = [feet.addGeometryObject(g) for g in meshes]
-    for a in ids[SIDES[0]]:
-        for b in ids[SIDES[1]]:
-            feet.addCollisionPair(pin.CollisionPair(a, b))
-    return feet
 
 
 def foot_distance(robot: Robot, grid: GridMotion, q: np.ndarray) -> dict:

@@ -14,8 +14,8 @@ import crocoddyl
 import numpy as np
 import pinocchio as pin
 
-from cocomopl.gait import OTHER_SIDE
-from cocomopl.kinematics import inverse_kinematics
+from cocomopl.gait import OTHER_SIDE, footstep_origin, footstep_pose
+from cocomopl.kinematics import flat_placement, inverse_kinematics
 from cocomopl.motion import StepSpec
 from cocomopl.ocp.action_models import contact_knot, impulse_knot
 from cocomopl.ocp.settings import OCPSettings
@@ -27,7 +27,8 @@ class Phase:
     """One phase of a step.
 
     ``kind`` is ``"ds"`` (both feet down), ``"ss"`` (``swing`` in the air, from
-    ``swing_from`` to ``swing_to``, (x, y) in metres) or ``"impact"`` (``swing`` lands).
+    ``swing_from`` to ``swing_to``, (x, y) in metres, turning from yaw ``yaw_from`` to
+    ``yaw_to``, rad) or ``"impact"`` (``swing`` lands).
     """
 
     kind: str
@@ -35,6 +36,8 @@ class Phase:
     swing: str | None = None
     swing_from: tuple[float, float] | None = None
     swing_to: tuple[float, float] | None = None
+    yaw_from: float = 0.0
+    yaw_to: float = 0.0
 
 
 @dataclass
@@ -60,14 +63,28 @@ def translate_state(robot: Robot, x: np.ndarray, dx: float, dy: float) -> np.nda
     return out
 
 
-def next_step_state(robot: Robot, x_start_next: np.ndarray, landed_at: tuple[float, float]) -> np.ndarray:
+def turn_state(robot: Robot, x: np.ndarray, yaw: float) -> np.ndarray:
+    """Turn a state's floating base by ``yaw`` (rad) about the vertical through the origin
+    (velocities are in the base frame: unchanged)."""
+    out = np.array(x, dtype=float, copy=True)
+    if yaw == 0.0:
+        return out
+    rotation = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, yaw))
+    for row in out.reshape(-1, out.shape[-1]):
+        row[:3] = rotation.matrix() @ row[:3]
+        row[3:7] = (rotation * pin.Quaternion(row[3:7])).coeffs()
+    return out
+
+
+def next_step_state(robot: Robot, x_start_next: np.ndarray, landed_at: tuple[float, float],
+                    landed_yaw: float = 0.0) -> np.ndarray:
     """Where the next step's start state lies in this step's frame.
 
     ``x_start_next`` is the next step's start in its own (right-support) frame; the next
-    step stands on the foot that just landed at ``landed_at``, so it is mirrored and moved
-    there.
+    step stands on the foot that just landed at ``landed_at`` turned by ``landed_yaw``, so it
+    is mirrored, turned and moved there.
     """
-    return translate_state(robot, mirror_state(robot, x_start_next), *landed_at)
+    return translate_state(robot, turn_state(robot, mirror_state(robot, x_start_next), landed_yaw), *landed_at)
 
 
 def _knots(duration: float, dt: float) -> int:
@@ -88,30 +105,34 @@ def walk_phases(
     ds, ss = durations if durations is not None else (settings.ds_duration, settings.ss_duration)
     dt = settings.dt
     first = specs[0]
-    feet = {"right": 0.0, "left": 0.0 if first.kind == "start" else -first.start_length}
-    lane = {"right": 0.0, "left": separation}
+    right = np.zeros(3)
+    left = (footstep_pose(right, "left", 0.0, 0.0, 0.0, separation) if first.kind == "start" else
+            footstep_origin(right, "right", first.start_length, first.start_width, first.start_turn, separation))
+    feet = {"right": right, "left": left}
     phases: list[Phase] = []
     swing = "left"
 
-    def step(to_x: float, ds_time: float) -> None:
+    def step(to: np.ndarray, ds_time: float) -> None:
         nonlocal swing
         phases.append(Phase("ds", _knots(ds_time, dt)))
-        y = lane[swing]
-        phases.append(Phase("ss", _knots(ss, dt), swing, (feet[swing], y), (to_x, y)))
-        phases.append(Phase("impact", swing=swing, swing_to=(to_x, y)))
-        feet[swing] = to_x
+        start = feet[swing]
+        phases.append(Phase("ss", _knots(ss, dt), swing, (start[0], start[1]), (to[0], to[1]), start[2], to[2]))
+        phases.append(Phase("impact", swing=swing, swing_to=(to[0], to[1]), yaw_to=to[2]))
+        feet[swing] = to
         swing = OTHER_SIDE[swing]
 
+    def landing(length: float, width: float, turn: float) -> np.ndarray:
+        return footstep_pose(feet[OTHER_SIDE[swing]], swing, length, width, turn, separation)
+
     for spec in specs:
-        stance_x = feet[OTHER_SIDE[swing]]
         if spec.kind == "start":
-            step(stance_x + spec.end_length, max(ds, settings.start_ds_duration))
+            step(landing(spec.end_length, spec.end_width, spec.end_turn), max(ds, settings.start_ds_duration))
         elif spec.kind in ("cyclic", "transition"):
-            step(stance_x + spec.end_length, ds)
+            step(landing(spec.end_length, spec.end_width, spec.end_turn), ds)
         elif spec.kind == "stop":
-            # one more step of the same length, then the other foot closes up beside it
-            step(stance_x + spec.start_length, ds)
-            step(feet[OTHER_SIDE[swing]], ds)
+            # one more step of the same footstep, then the other foot closes up beside it
+            step(landing(spec.start_length, spec.start_width, spec.start_turn), ds)
+            step(landing(0.0, 0.0, 0.0), ds)
             phases.append(Phase("ds", _knots(settings.rest_duration, dt)))
         else:
             raise ValueError(f"unknown step kind {spec.kind!r}")
@@ -123,6 +144,11 @@ def landing_point(phases: list[Phase]) -> tuple[float, float]:
     return [p for p in phases if p.kind == "impact"][-1].swing_to
 
 
+def landing_yaw(phases: list[Phase]) -> float:
+    """The yaw (rad) of the last foot to touch down, in the problem's frame."""
+    return [p for p in phases if p.kind == "impact"][-1].yaw_to
+
+
 def _swing_guide(phase: Phase, s: float, clearance: float) -> pin.SE3:
     """A smooth reference for the swing sole at phase fraction ``s``: it only steers the
     solver's early iterations (small weight), the landing and clearance are what count."""
@@ -131,11 +157,18 @@ def _swing_guide(phase: Phase, s: float, clearance: float) -> pin.SE3:
     xy = start + blend * (end - start)
     apex = 1.6 * (clearance + 0.02)  # comfortably above the clearance constraint
     z = apex * np.sin(np.pi * s) ** 2
-    return pin.SE3(np.eye(3), np.array([xy[0], xy[1], z]))
+    yaw = phase.yaw_from + blend * (phase.yaw_to - phase.yaw_from)
+    return pin.SE3(flat_placement(0.0, 0.0, yaw).rotation, np.array([xy[0], xy[1], z]))
 
 
-def _flat(xy: tuple[float, float]) -> pin.SE3:
-    return pin.SE3(np.eye(3), np.array([xy[0], xy[1], 0.0]))
+def _flat(xy: tuple[float, float], yaw: float = 0.0) -> pin.SE3:
+    return flat_placement(xy[0], xy[1], yaw)
+
+
+def initial_yaw(phases: list[Phase], side: str) -> float:
+    """The planned yaw of sole ``side`` at the start of ``phases``: where its first swing
+    starts from (a sole that does not swing is the stance sole, at yaw 0 in the step frame)."""
+    return next((p.yaw_from for p in phases if p.kind == "ss" and p.swing == side), 0.0)
 
 
 def load_shares(phases: list[Phase], i: int, from_rest: bool) -> list[dict[str, float] | None]:
@@ -164,7 +197,8 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
     x_ref = robot.state_from_posture(robot.q_ref)
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, plan.x0[: robot.model.nq])
-    feet = {side: _flat(data.oMf[robot.foot_frames[side]].translation[:2]) for side in ("left", "right")}
+    feet = {side: _flat(data.oMf[robot.foot_frames[side]].translation[:2], initial_yaw(plan.phases, side))
+            for side in ("left", "right")}
     knots: list = []
     for i, phase in enumerate(plan.phases):
         if phase.kind == "ds":
@@ -191,7 +225,7 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
                     )
                 )
         elif phase.kind == "impact":
-            feet[phase.swing] = _flat(phase.swing_to)
+            feet[phase.swing] = _flat(phase.swing_to, phase.yaw_to)
             knots.append(impulse_knot(robot, state, phase.swing, feet[phase.swing], x_ref, settings))
         else:
             raise ValueError(f"unknown phase kind {phase.kind!r}")
@@ -208,8 +242,8 @@ def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: O
     data = model.createData()
     q = x0[:nq].copy()
     pin.framesForwardKinematics(model, data, q)
-    feet = {side: data.oMf[robot.foot_frames[side]].translation.copy() for side in ("left", "right")}
-    feet = {side: np.array([p[0], p[1], 0.0]) for side, p in feet.items()}
+    feet = {side: _flat(data.oMf[robot.foot_frames[side]].translation[:2], initial_yaw(phases, side))
+            for side in ("left", "right")}
     com = pin.centerOfMass(model, data, q)[:2].copy()
     postures = [q]
     inward = {"left": -0.01, "right": 0.01}
@@ -221,10 +255,10 @@ def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: O
         if phase.kind == "ds":
             swing = next_swing(i)
             if swing is None:
-                goal = 0.5 * (feet["left"][:2] + feet["right"][:2])
+                goal = 0.5 * (feet["left"].translation[:2] + feet["right"].translation[:2])
             else:
                 stance = OTHER_SIDE[swing]
-                goal = feet[stance][:2] + np.array([0.0, inward[stance]])
+                goal = feet[stance].translation[:2] + feet[stance].rotation[:2, :2] @ np.array([0.0, inward[stance]])
             for k in range(phase.knots):
                 c = com + (goal - com) * (k + 1) / phase.knots
                 postures.append(inverse_kinematics(robot, feet, c, postures[-1], iterations=20, check=False))
@@ -232,10 +266,10 @@ def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: O
         elif phase.kind == "ss":
             for k in range(phase.knots):
                 s = (k + 1) / phase.knots
-                feet[phase.swing] = _swing_guide(phase, s, settings.clearance).translation
+                feet[phase.swing] = _swing_guide(phase, s, settings.clearance)
                 postures.append(inverse_kinematics(robot, feet, com, postures[-1], iterations=20, check=False))
         else:  # impact: no time passes
-            feet[phase.swing] = np.array([phase.swing_to[0], phase.swing_to[1], 0.0])
+            feet[phase.swing] = _flat(phase.swing_to, phase.yaw_to)
             postures.append(postures[-1])
     xs = [x0]
     for k in range(1, len(postures)):

@@ -1,0 +1,136 @@
+"""Omnidirectional footsteps: the step parameters, their geometry and range, and step OCPs
+that turn, side-step and step backward (issue #25, first part)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import h5py
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from cocomopl.data import BUNDLED_DATASET
+from cocomopl.errors import Error
+from cocomopl.gait import FEET_GAP, check_footstep, foot_separation, footstep_origin, footstep_pose
+from cocomopl.kinematics import double_support_posture, flat_placement, soles_distance
+from cocomopl.motion import StepSpec
+from cocomopl.motion_file import read_motion_group, write_motion_group
+from cocomopl.ocp.problems import StepPlan, landing_point, landing_yaw, walk_phases
+from cocomopl.ocp.solve import failed_checks, solve_plan, to_motion
+from cocomopl.robot import mirror_motion
+
+from conftest import SMALL
+
+TURNING = StepSpec("transition", 0.2, 0.25, "left", start_width=0.02, end_width=0.1,
+                   start_turn=math.radians(-10), end_turn=math.radians(20))
+
+
+def sole_pose(robot, q: np.ndarray, side: str) -> np.ndarray:
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    placement = data.oMf[robot.foot_frames[side]]
+    return np.array([*placement.translation[:2], math.atan2(placement.rotation[1, 0], placement.rotation[0, 0])])
+
+
+def test_a_straight_step_is_written_as_before_and_an_omnidirectional_one_round_trips(tmp_path):
+    straight = StepSpec("cyclic", 0.2, 0.2)
+    assert straight.straight and set(straight.as_dict()) == {"kind", "start_length", "end_length", "swing_side"}
+    assert straight.name == "cyclic_200_L"
+    assert not TURNING.straight and TURNING.name == "transition_200_250_w20_100_t-10_20_L"
+    with h5py.File(BUNDLED_DATASET) as f:
+        first = read_motion_group(f["motions"][next(iter(f["motions"]))])
+    motion = replace(first, steps=[TURNING])
+    with h5py.File(tmp_path / "m.h5", "w") as f:
+        write_motion_group(f.create_group("m"), motion)
+    with h5py.File(tmp_path / "m.h5") as f:
+        assert read_motion_group(f["m"]).steps == [TURNING]
+
+
+@pytest.mark.parametrize("bad", [{"end_turn": float("nan")}, {"start_width": float("inf")}, {"end_width": "0.1"}])
+def test_a_step_with_a_footstep_that_is_not_a_finite_number_is_refused(bad):
+    with pytest.raises(ValueError, match="finite numbers"):
+        StepSpec("cyclic", 0.2, 0.2, **bad)
+
+
+def test_a_mirrored_step_keeps_its_footsteps_and_lands_as_the_mirror_image(robot):
+    separation = foot_separation(robot)
+    mirrored = TURNING.mirrored()
+    assert mirrored.omni_parameters() == TURNING.omni_parameters() and mirrored.mirrored() == TURNING
+    left = footstep_pose(np.zeros(3), "left", 0.25, 0.1, math.radians(20), separation)
+    right = footstep_pose(np.zeros(3), "right", 0.25, 0.1, math.radians(20), separation)
+    np.testing.assert_allclose(right, left * [1, -1, -1])  # reflected in the sagittal plane
+    assert left[1] > separation and left[2] > 0  # outward and toes out, to the left
+
+
+def test_footstep_origin_inverts_footstep_pose():
+    rng = np.random.default_rng(0)
+    for side in ("left", "right"):
+        for _ in range(20):
+            other = rng.uniform([-1, -1, -np.pi], [1, 1, np.pi])
+            step = rng.uniform([-0.15, -0.02, -0.4], [0.4, 0.15, 0.4])
+            landed = footstep_pose(other, side, *step, 0.17)
+            np.testing.assert_allclose(footstep_origin(landed, side, *step, 0.17), other, atol=1e-12)
+
+
+def test_a_straight_footstep_is_exactly_the_old_arithmetic():
+    assert footstep_pose(np.array([0.3, -0.085, 0.0]), "left", 0.25, 0.0, 0.0, 0.17).tolist() == [0.3 + 0.25, -0.085 + 0.17, 0.0]
+
+
+def test_footsteps_out_of_range_or_colliding_are_refused_in_one_line(robot):
+    check_footstep(robot, "left", 0.2, 0.0, math.radians(25))  # a forward step leaves the heels room to turn
+    check_footstep(robot, "right", -0.15, 0.15, math.radians(-25))
+    for args, message in [((0.5, 0.0, 0.0), "length 500 mm is outside -150..400 mm"),
+                          ((0.2, 0.2, 0.0), "width 200 mm is outside"),
+                          ((0.2, 0.0, math.radians(30)), "turn 30 deg is outside -25..25 deg"),
+                          ((0.0, -0.03, 0.0), "puts the left foot"),
+                          ((0.0, 0.0, math.radians(25)), "puts the left foot")]:
+        with pytest.raises(Error, match=message) as info:
+            check_footstep(robot, "left", *args)
+        assert "\n" not in str(info.value)
+
+
+def test_soles_distance_measures_the_gap_between_the_feet(robot):
+    separation = foot_separation(robot)
+    beside = soles_distance(robot, {"right": flat_placement(0, 0, 0), "left": flat_placement(0, separation, 0)})
+    closer = soles_distance(robot, {"right": flat_placement(0, 0, 0), "left": flat_placement(0, separation - 0.01, 0)})
+    assert beside > FEET_GAP and closer == pytest.approx(beside - 0.01, abs=1e-6)
+
+
+def test_the_phases_of_a_turning_stop_close_the_feet_up_parallel(robot):
+    separation = foot_separation(robot)
+    stop = StepSpec("stop", 0.2, 0.0, start_width=0.05, start_turn=math.radians(15))
+    phases = walk_phases([stop], separation, SMALL)
+    first, second = [p for p in phases if p.kind == "ss"]
+    # the left sole starts where the right one's footstep (the stop's start footstep) came from
+    np.testing.assert_allclose(footstep_pose(np.array([*first.swing_from, first.yaw_from]), "right", 0.2, 0.05,
+                                             math.radians(15), separation), [0, 0, 0], atol=1e-12)
+    # then lands the same footstep again and the right sole closes up beside it, parallel
+    landed = footstep_pose(np.zeros(3), "left", 0.2, 0.05, math.radians(15), separation)
+    np.testing.assert_allclose([*first.swing_to, first.yaw_to], landed)
+    np.testing.assert_allclose([*landing_point(phases), landing_yaw(phases)],
+                               footstep_pose(landed, "right", 0.0, 0.0, 0.0, separation))
+    assert second.yaw_to == pytest.approx(landed[2])
+
+
+@pytest.mark.parametrize("footstep", [(0.2, 0.0, 20.0), (0.0, 0.12, 0.0), (-0.12, 0.0, 0.0)],
+                         ids=["turning", "sideways", "backward"])
+def test_a_start_step_turns_side_steps_or_steps_back_and_its_mirror_image_the_other_way(robot, footstep):
+    length, width, turn = footstep[0], footstep[1], math.radians(footstep[2])
+    separation = foot_separation(robot)
+    spec = StepSpec("start", 0.0, length, end_width=width, end_turn=turn)
+    x0 = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
+    solution = solve_plan(robot, StepPlan(spec, walk_phases([spec], separation, SMALL), x0), SMALL)
+    assert solution.stats["converged"]
+    assert failed_checks(robot, solution, SMALL)[0] == []  # dynamics, friction, ZMP in the (turned) soles
+    motion = to_motion(robot, solution, SMALL)
+    landed = footstep_pose(np.zeros(3), "left", length, width, turn, separation)
+    np.testing.assert_allclose(sole_pose(robot, motion.q[-1], "left"), landed, atol=2e-3)
+    np.testing.assert_allclose(sole_pose(robot, motion.q[-1], "right"), [0, 0, 0], atol=2e-3)
+    mirrored = mirror_motion(robot, motion)
+    assert mirrored.steps == [spec.mirrored()]
+    np.testing.assert_allclose(sole_pose(robot, mirrored.q[-1], "right"), landed * [1, -1, -1], atol=2e-3)
+    again = mirror_motion(robot, mirrored)
+    np.testing.assert_allclose(again.q, motion.q, atol=1e-12)
+    np.testing.assert_allclose(again.tau, motion.tau, atol=1e-12)
