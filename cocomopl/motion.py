@@ -4,10 +4,30 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
 STEP_KINDS = ("start", "cyclic", "transition", "stop")
+
+
+class Footstep(NamedTuple):
+    """Where a sole lands relative to the other sole (:class:`StepSpec` says how it is
+    measured): ``length`` and ``width`` (m), ``turn`` (rad)."""
+
+    length: float
+    width: float = 0.0
+    turn: float = 0.0
+
+    @property
+    def straight(self) -> bool:
+        return self.width == 0.0 and self.turn == 0.0
+
+    @property
+    def gait_key(self) -> float | tuple[float, float, float]:
+        """The key of the gait state ``S`` of this footstep: the length alone for a straight
+        footstep, as the straight dataset keys its gait states; else the whole footstep."""
+        return self.length if self.straight else tuple(self)
 
 
 @dataclass(frozen=True)
@@ -60,6 +80,19 @@ class StepSpec:
             lengths = f"{mm[0]}_{mm[1]}"
         return f"{self.kind}_{lengths}{self._omni_suffix()}_{side}"
 
+    @classmethod
+    def between(cls, kind: str, start: Footstep, end: Footstep, swing_side: str = "left") -> StepSpec:
+        """The step of ``kind`` from footstep ``start`` to footstep ``end``."""
+        return cls(kind, start.length, end.length, swing_side, start.width, end.width, start.turn, end.turn)
+
+    @property
+    def start_footstep(self) -> Footstep:
+        return Footstep(self.start_length, self.start_width, self.start_turn)
+
+    @property
+    def end_footstep(self) -> Footstep:
+        return Footstep(self.end_length, self.end_width, self.end_turn)
+
     @property
     def straight(self) -> bool:
         """Whether both footsteps are straight ahead at the nominal width."""
@@ -86,7 +119,7 @@ class StepSpec:
                 del out[key]
         return out
 
-    def mirrored(self) -> "StepSpec":
+    def mirrored(self) -> StepSpec:
         return replace(self, swing_side="right" if self.swing_side == "left" else "left")
 
 

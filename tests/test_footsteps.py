@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import h5py
 import numpy as np
@@ -15,10 +16,10 @@ from cocomopl.data import BUNDLED_DATASET
 from cocomopl.errors import Error
 from cocomopl.gait import FEET_GAP, check_footstep, foot_separation, footstep_origin, footstep_pose
 from cocomopl.kinematics import double_support_posture, flat_placement, soles_distance
-from cocomopl.motion import StepSpec
+from cocomopl.motion import Footstep, StepSpec
 from cocomopl.motion_file import read_motion_group, write_motion_group
-from cocomopl.ocp.problems import StepPlan, landing_point, landing_yaw, walk_phases
-from cocomopl.ocp.solve import failed_checks, solve_plan, to_motion
+from cocomopl.ocp.problems import StepPlan, initial_guess, landing_point, landing_yaw, walk_phases
+from cocomopl.ocp.solve import failed_checks, solve_plan, step_plan, to_motion, walk_segment, warm_up_plan
 from cocomopl.robot import mirror_motion
 
 from conftest import SMALL
@@ -134,3 +135,41 @@ def test_a_start_step_turns_side_steps_or_steps_back_and_its_mirror_image_the_ot
     again = mirror_motion(robot, mirrored)
     np.testing.assert_allclose(again.q, motion.q, atol=1e-12)
     np.testing.assert_allclose(again.tau, motion.tau, atol=1e-12)
+
+
+def gait_state_geometry(robot, footstep: Footstep) -> np.ndarray:
+    """A standing state with the soles as a gait state ``S`` of ``footstep`` has them: the
+    right sole at the origin, the left one where the right one's footstep came from."""
+    left = footstep_origin(np.zeros(3), "right", *footstep, foot_separation(robot))
+    return robot.state_from_posture(double_support_posture(robot, left[:2], (0.0, 0.0), yaws=(left[2], 0.0)))
+
+
+def test_a_transition_between_footsteps_is_held_to_the_next_gait_state_where_the_sole_landed(robot):
+    a, b = Footstep(0.2, 0.0, math.radians(15)), Footstep(0.15, 0.05, math.radians(-10))
+    states = {f.gait_key: gait_state_geometry(robot, f) for f in (a, b)}
+    plan = step_plan(robot, StepSpec.between("transition", a, b), states, SMALL)
+    nq = robot.model.nq
+    np.testing.assert_allclose(sole_pose(robot, plan.x0[:nq], "left"), footstep_origin(np.zeros(3), "right", *a, foot_separation(robot)), atol=1e-4)
+    landed = footstep_pose(np.zeros(3), "left", *b, foot_separation(robot))
+    # the next step stands on the left sole that landed, and its swing sole is the right one
+    np.testing.assert_allclose(sole_pose(robot, plan.x_target[:nq], "left"), landed, atol=1e-4)
+    np.testing.assert_allclose(sole_pose(robot, plan.x_target[:nq], "right"), [0, 0, 0], atol=1e-4)
+
+
+def test_a_turning_warm_up_walk_ends_at_rest_and_its_segments_are_in_their_step_frames(robot):
+    footstep = Footstep(0.2, 0.05, math.radians(15))
+    separation = foot_separation(robot)
+    plan = warm_up_plan(robot, footstep, SMALL)
+    nq = robot.model.nq
+    impacts = [p for p in plan.phases if p.kind == "impact"]
+    for side in ("left", "right"):
+        last = next(p for p in reversed(impacts) if p.swing == side)
+        np.testing.assert_allclose(sole_pose(robot, plan.x_target[:nq], side), [*last.swing_to, last.yaw_to], atol=1e-4)
+    assert np.all(plan.x_target[nq:] == 0)
+    walk = SimpleNamespace(plan=plan, xs=initial_guess(robot, plan.phases, plan.x0, SMALL))
+    # the second cyclic step stands on the right sole, the stop's first step on the left one (mirrored)
+    for kind in ("cyclic", "stop"):
+        first = walk_segment(robot, walk, kind)[0][:nq]
+        np.testing.assert_allclose(sole_pose(robot, first, "right"), [0, 0, 0], atol=2e-3)
+        np.testing.assert_allclose(sole_pose(robot, first, "left"), footstep_origin(np.zeros(3), "right", *footstep, separation),
+                                   atol=2e-3)

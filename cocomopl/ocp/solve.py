@@ -20,15 +20,18 @@ from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, foot_separation
 from cocomopl.kinematics import double_support_posture
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.ocp.problems import (
     StepPlan,
     build_problem,
     initial_guess,
+    initial_yaw,
     landing_point,
+    landing_yaw,
     next_step_state,
     state_count,
     translate_state,
+    turn_state,
     walk_phases,
 )
 from cocomopl.ocp.settings import OCPSettings
@@ -152,26 +155,36 @@ def _with_previous_torques(xs: list[np.ndarray], us: list[np.ndarray], tau0: np.
 WALK_STEPS = {"start": [0], "cyclic": [2], "stop": [3, 4, 5]}  # double-support phases of each spec
 
 
-def warm_up_plan(robot: Robot, length: float, settings: OCPSettings) -> StepPlan:
-    """The warm-up walk's problem at one step length: start, two cyclic steps, stop, from rest
-    to rest (right sole at the origin, left swinging first)."""
+def resting_at_the_end(robot: Robot, phases: list) -> np.ndarray:
+    """Standing still in double support where ``phases`` leave the soles (at their last
+    touchdowns), the CoM between them."""
+    impacts = [p for p in phases if p.kind == "impact"]
+    last = {side: next(p for p in reversed(impacts) if p.swing == side) for side in ("left", "right")}
+    posture = double_support_posture(robot, last["left"].swing_to, last["right"].swing_to,
+                                     yaws=(last["left"].yaw_to, last["right"].yaw_to))
+    return robot.state_from_posture(posture)
+
+
+def warm_up_plan(robot: Robot, footstep: float | Footstep, settings: OCPSettings) -> StepPlan:
+    """The warm-up walk's problem at one footstep (or straight step length, m): start, two
+    cyclic steps, stop, from rest to rest (right sole at the origin, left swinging first)."""
+    footstep = as_footstep(footstep)
     separation = foot_separation(robot)
     x_rest = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
+    rest = Footstep(0.0)
     specs = [
-        StepSpec("start", 0.0, length),
-        StepSpec("cyclic", length, length),
-        StepSpec("cyclic", length, length),
-        StepSpec("stop", length, 0.0),
+        StepSpec.between("start", rest, footstep),
+        StepSpec.between("cyclic", footstep, footstep),
+        StepSpec.between("cyclic", footstep, footstep),
+        StepSpec.between("stop", footstep, rest),
     ]
     phases = walk_phases(specs, separation, settings)
-    end_x = landing_point(phases)[0]
-    x_end = robot.state_from_posture(double_support_posture(robot, (end_x, separation), (end_x, 0.0)))
-    return StepPlan(specs[0], phases, x_rest, x_end)
+    return StepPlan(specs[0], phases, x_rest, resting_at_the_end(robot, phases))
 
 
-def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.ndarray | None = None,
+def warm_up_walk(robot: Robot, footstep: float | Footstep, settings: OCPSettings, guess: np.ndarray | None = None,
                  controls: list[np.ndarray] | None = None) -> Solution:
-    """A short walk at one step length (:func:`warm_up_plan`), from rest to rest.
+    """A short walk at one footstep (:func:`warm_up_plan`), from rest to rest.
 
     A single cyclic step cannot be solved for its own start state with a DDP solver, whose
     initial state is fixed; a walk settles into its gait by the second cyclic step, whose
@@ -182,7 +195,7 @@ def warm_up_walk(robot: Robot, length: float, settings: OCPSettings, guess: np.n
     (None: quasi-static); the model's walk at 230 mm took 75 iterations with its
     torques, 200 (not converged) without, and the kinematic guess 90.
     """
-    plan = warm_up_plan(robot, length, settings)
+    plan = warm_up_plan(robot, footstep, settings)
     # the walk only needs to settle into its gait, not to converge tightly
     fits = guess is not None and len(guess) == state_count(plan.phases)
     start = list(guess) if fits else "kinematic"
@@ -196,7 +209,8 @@ def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
     phases = walk.plan.phases
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, walk.xs[0][: robot.model.nq])
-    feet = {side: data.oMf[robot.foot_frames[side]].translation[:2].copy() for side in ("left", "right")}
+    feet = {side: (*data.oMf[robot.foot_frames[side]].translation[:2], initial_yaw(phases, side))
+            for side in ("left", "right")}
     ds_seen, k, first, stance = -1, 0, None, None
     wanted = WALK_STEPS[kind]
     for idx, phase in enumerate(phases):
@@ -205,14 +219,14 @@ def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
             if ds_seen == wanted[0]:
                 first = k
                 stance = OTHER_SIDE[next(p.swing for p in phases[idx:] if p.kind == "ss")]
-                origin = feet[stance].copy()
+                origin = feet[stance]
             if ds_seen == wanted[-1] + 1:
                 break
         if phase.kind == "impact":
-            feet[phase.swing] = np.asarray(phase.swing_to, dtype=float)
+            feet[phase.swing] = (*phase.swing_to, phase.yaw_to)
         k += 1 if phase.kind == "impact" else phase.knots
     last = k if ds_seen == wanted[-1] + 1 else len(walk.xs) - 1
-    segment = translate_state(robot, walk.xs[first : last + 1], -origin[0], -origin[1])
+    segment = turn_state(robot, translate_state(robot, walk.xs[first : last + 1], -origin[0], -origin[1]), -origin[2])
     if stance == "left":
         segment = mirror_state(robot, segment)
     return list(segment)
@@ -267,25 +281,32 @@ def failed_checks(robot: Robot, solution: Solution, settings: OCPSettings) -> tu
     return failed, gap
 
 
-def length_steps(length: float) -> dict[str, StepSpec]:
-    """The right-support cyclic, start and stop steps of one length, by kind."""
+def length_steps(footstep: float | Footstep) -> dict[str, StepSpec]:
+    """The right-support cyclic, start and stop steps of one footstep (or straight step
+    length, m), by kind."""
+    footstep, rest = as_footstep(footstep), Footstep(0.0)
     return {
-        "cyclic": StepSpec("cyclic", length, length),
-        "start": StepSpec("start", 0.0, length),
-        "stop": StepSpec("stop", length, 0.0),
+        "cyclic": StepSpec.between("cyclic", footstep, footstep),
+        "start": StepSpec.between("start", rest, footstep),
+        "stop": StepSpec.between("stop", footstep, rest),
     }
+
+
+def as_footstep(footstep: float | Footstep) -> Footstep:
+    """A footstep, or the straight one of a step length (m)."""
+    return footstep if isinstance(footstep, Footstep) else Footstep(float(footstep))
 
 
 def solve_length(
     robot: Robot,
-    length: float,
+    length: float | Footstep,
     settings: OCPSettings,
     kinds: tuple[str, ...] = ("cyclic", "start", "stop"),
     cyclic_start: np.ndarray | None = None,
     walk_guess: np.ndarray | None = None,
     walk_controls: list[np.ndarray] | None = None,
 ) -> tuple[dict[str, Solution | None], dict]:
-    """The cyclic, start and stop steps of one length, and the cyclic start state ``S(L)``.
+    """The cyclic, start and stop steps of one length (or footstep), and the cyclic start state ``S(L)``.
 
     Phase timing is free, as in the paper, but the solver has no time variable: the
     single-support duration is searched outside it (:func:`descend` from
@@ -300,7 +321,9 @@ def solve_length(
     ``durations`` (double, single support; s), ``duration_search``, ``attempts`` and ``walk``
     (the warm-up walk's states, to continue from).
     """
-    spec_of = length_steps(length)
+    footstep = as_footstep(length)
+    spec_of = length_steps(footstep)
+    key = footstep.gait_key
     solutions, attempts, search = {}, {}, []
     if cyclic_start is None:
         tried: dict[float, tuple | None] = {}
@@ -310,11 +333,11 @@ def solve_length(
             ss = round(ss, 6)
             if ss not in tried:
                 opts = replace(settings, ss_duration=ss)
-                walk = warm_up_walk(robot, length, opts, walk_guess, walk_controls)
+                walk = warm_up_walk(robot, footstep, opts, walk_guess, walk_controls)
                 segment = walk_segment(robot, walk, "cyclic")
                 x0 = segment[0]
                 guesses = [segment, "kinematic", "static"]
-                solution, record = solve_with_retries(robot, spec_of["cyclic"], {length: x0}, opts, guesses)
+                solution, record = solve_with_retries(robot, spec_of["cyclic"], {key: x0}, opts, guesses)
                 attempts.setdefault("cyclic", []).extend(record)
                 search.append({"ss_duration": ss, "cost": None if solution is None else solution.stats["cost"]})
                 tried[ss] = None if solution is None else (solution, record, walk, x0, opts)
@@ -325,8 +348,8 @@ def solve_length(
             return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
         solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
     else:
-        walk = warm_up_walk(robot, length, settings, walk_guess, walk_controls)
-    states = {length: cyclic_start}
+        walk = warm_up_walk(robot, footstep, settings, walk_guess, walk_controls)
+    states = {key: cyclic_start}
     for kind in kinds:
         if kind == "cyclic":
             continue
@@ -365,19 +388,20 @@ def descend(cost, start: float, step: float, bounds: tuple[float, float]) -> flo
     return best
 
 
-def step_plan(robot: Robot, spec: StepSpec, start_states: dict[float, np.ndarray], settings: OCPSettings) -> StepPlan:
-    """Initial state, phases and continuity target of a right-support step ``spec``."""
+def step_plan(robot: Robot, spec: StepSpec, start_states: dict, settings: OCPSettings) -> StepPlan:
+    """Initial state, phases and continuity target of a right-support step ``spec``;
+    ``start_states``: the gait states ``S`` by :attr:`~cocomopl.motion.Footstep.gait_key`."""
     separation = foot_separation(robot)
     phases = walk_phases([spec], separation, settings)
     if spec.kind == "start":
         x0 = robot.state_from_posture(double_support_posture(robot, (0.0, separation), (0.0, 0.0)))
     else:
-        x0 = start_states[spec.start_length]
+        x0 = start_states[spec.start_footstep.gait_key]
     if spec.kind == "stop":
-        x = landing_point(phases)[0]
-        target = robot.state_from_posture(double_support_posture(robot, (x, separation), (x, 0.0)))
+        target = resting_at_the_end(robot, phases)
     else:
-        target = next_step_state(robot, start_states[spec.end_length], landing_point(phases))
+        target = next_step_state(robot, start_states[spec.end_footstep.gait_key], landing_point(phases),
+                                 landing_yaw(phases))
     return StepPlan(spec, phases, x0, target)
 
 
@@ -478,15 +502,15 @@ def solve_transition(
     robot: Robot, settings: OCPSettings, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion
 ) -> tuple[Motion | None, list]:
     """A transition step between the start states of two cyclic steps, warm-started from
-    the cyclic step of its start length.
+    the cyclic step of its start length (or footstep).
 
     Returns the motion (None if no attempt converged) and the attempts made.
     """
     # the transition keeps the timing of the gait it leaves, whose cyclic step warm-starts it
     opts = replace(settings, **phase_durations(cyclic_from))
     states = {
-        spec.start_length: np.concatenate([cyclic_from.q[0], cyclic_from.v[0]]),
-        spec.end_length: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
+        spec.start_footstep.gait_key: np.concatenate([cyclic_from.q[0], cyclic_from.v[0]]),
+        spec.end_footstep.gait_key: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
     }
     warm = list(np.hstack([cyclic_from.q, cyclic_from.v]))
     solution, attempts = solve_with_retries(robot, spec, states, opts, [warm, "kinematic", "static"])
