@@ -29,6 +29,17 @@ class Footstep(NamedTuple):
         footstep, as the straight dataset keys its gait states; else the whole footstep."""
         return self.length if self.straight else tuple(self)
 
+    @property
+    def label(self) -> str:
+        """``250`` (mm) for a straight footstep, ``200_w50_t15`` (mm, mm, degrees) otherwise."""
+        length = f"{1000 * self.length:g}"
+        return length if self.straight else f"{length}_w{1000 * self.width:g}_t{math.degrees(self.turn):.4g}"
+
+
+def as_footstep(footstep: float | Footstep) -> Footstep:
+    """A footstep, or the straight one of a step length (m)."""
+    return footstep if isinstance(footstep, Footstep) else Footstep(float(footstep))
+
 
 @dataclass(frozen=True)
 class StepSpec:

@@ -8,6 +8,7 @@ each has its own test on the small cyclic step.
 """
 
 import fcntl
+import math
 import os
 import subprocess
 import sys
@@ -16,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.ocp.settings import OCPSettings
 from cocomopl.robot import Robot
 
@@ -34,17 +35,33 @@ def robot() -> Robot:
 
 @pytest.fixture(scope="session")
 def small_dataset(tmp_path_factory) -> Path:
-    """The OCPs of one length on coarse knots, solved once for all test processes: the
-    first xdist worker to get here solves them while the others wait on the lock."""
+    """The OCPs of one length on coarse knots, solved once for all test processes."""
+    return _shared_dataset(tmp_path_factory, "small-dataset", (SMALL_LENGTH,))
+
+
+# a steady turn of 15 degrees a step: the left sole toes out, the right one follows toeing in
+TURN = (Footstep(SMALL_LENGTH, 0.0, math.radians(15)), Footstep(SMALL_LENGTH, 0.0, math.radians(-15)))
+
+
+@pytest.fixture(scope="session")
+def turning_dataset(tmp_path_factory) -> Path:
+    """The OCPs of the two footsteps of a steady turn (:data:`TURN`) and the transitions
+    between them, on coarse knots, solved once for all test processes."""
+    return _shared_dataset(tmp_path_factory, "turning-dataset", TURN)
+
+
+def _shared_dataset(tmp_path_factory, name: str, lengths: tuple) -> Path:
+    """A dataset solved once for all test processes: the first xdist worker to get here
+    solves it while the others wait on the lock."""
     from cocomopl.dataset.generate import generate
 
     base = tmp_path_factory.getbasetemp()
     shared = base.parent if "PYTEST_XDIST_WORKER" in os.environ else base  # this run's, common to its workers
-    out = shared / "small-dataset.h5"
-    with open(shared / "small-dataset.lock", "w") as lock:
+    out = shared / f"{name}.h5"
+    with open(shared / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not out.exists():
-            summary = generate(out, (SMALL_LENGTH,), settings=SMALL, workers=2, command="pytest", progress=False)
+            summary = generate(out, lengths, settings=SMALL, workers=2, command="pytest", progress=False)
             assert summary["failed"] == [], summary
     return out
 

@@ -13,16 +13,17 @@ import pinocchio as pin
 import pytest
 
 from cocomopl.data import BUNDLED_DATASET
+from cocomopl.dataset.check import check_dataset
 from cocomopl.errors import Error
 from cocomopl.gait import FEET_GAP, check_footstep, foot_separation, footstep_origin, footstep_pose
 from cocomopl.kinematics import double_support_posture, flat_placement, soles_distance
 from cocomopl.motion import Footstep, StepSpec
-from cocomopl.motion_file import read_motion_group, write_motion_group
+from cocomopl.motion_file import read_motion_group, read_motions, write_motion_group
 from cocomopl.ocp.problems import StepPlan, initial_guess, landing_point, landing_yaw, walk_phases
 from cocomopl.ocp.solve import failed_checks, solve_plan, step_plan, to_motion, walk_segment, warm_up_plan
 from cocomopl.robot import mirror_motion
 
-from conftest import SMALL
+from conftest import SMALL, TURN
 
 TURNING = StepSpec("transition", 0.2, 0.25, "left", start_width=0.02, end_width=0.1,
                    start_turn=math.radians(-10), end_turn=math.radians(20))
@@ -173,3 +174,23 @@ def test_a_turning_warm_up_walk_ends_at_rest_and_its_segments_are_in_their_step_
         np.testing.assert_allclose(sole_pose(robot, first, "right"), [0, 0, 0], atol=2e-3)
         np.testing.assert_allclose(sole_pose(robot, first, "left"), footstep_origin(np.zeros(3), "right", *footstep, separation),
                                    atol=2e-3)
+
+
+def test_a_steady_turn_is_solved_mirrored_and_passes_every_check_of_the_dataset(robot, turning_dataset):
+    motions, attrs = read_motions(turning_dataset, dataset=True)
+    left, right = TURN
+    specs = [StepSpec.between("cyclic", f, f) for f in TURN] + [StepSpec.between("start", Footstep(0.0), f) for f in TURN]
+    specs += [StepSpec.between("stop", f, Footstep(0.0)) for f in TURN]
+    specs += [StepSpec.between("transition", left, right), StepSpec.between("transition", right, left)]
+    assert sorted(motions) == sorted(n for s in specs for n in (s.name, s.mirrored().name))
+    assert attrs["footsteps_m_rad"] == [list(f) for f in TURN] and attrs["all_converged"]
+    report = check_dataset(robot, motions, SMALL.friction, SMALL.dt)
+    assert report["ok"] and report["junctions"] == 36, report["worst"]  # continuity at every junction included
+    separation = foot_separation(robot)
+    # the left sole toes out 15 degrees; the right one, mirrored, lands turned the other way
+    step = motions[StepSpec.between("transition", right, left).name]
+    np.testing.assert_allclose(sole_pose(robot, step.q[-1], "left"), footstep_pose(np.zeros(3), "left", *left, separation),
+                               atol=2e-3)
+    mirrored = motions[StepSpec.between("transition", right, left, "right").name]
+    np.testing.assert_allclose(sole_pose(robot, mirrored.q[-1], "right"),
+                               footstep_pose(np.zeros(3), "right", *left, separation), atol=2e-3)

@@ -7,6 +7,7 @@ import pinocchio as pin
 
 from cocomopl.dynamics import sole_placements
 from cocomopl.motion import Motion
+from cocomopl.ocp.problems import turn_state
 from cocomopl.robot import Robot
 
 
@@ -14,15 +15,16 @@ def end_in_next_frame(robot: Robot, prev: Motion) -> np.ndarray:
     """The last state of ``prev`` in the frame of the step that follows it.
 
     The next step stands on the foot that ``prev`` put down last; its frame is that sole's,
-    with the same axes.
+    turned as the step's footstep turned it (the same axes for a straight step).
     """
-    swing = prev.steps[-1].swing_side
-    if prev.steps[-1].kind == "stop":
+    step = prev.steps[-1]
+    if step.kind == "stop":
         raise ValueError("no step follows a stop")
-    landed = sole_placements(robot, prev.q[-1:])[0, 0 if swing == "left" else 1]
+    landed = sole_placements(robot, prev.q[-1:])[0, 0 if step.swing_side == "left" else 1]
     q = prev.q[-1].copy()
     q[0:2] -= landed[0:2]
-    return np.concatenate([q, prev.v[-1]])
+    yaw = step.end_turn if step.swing_side == "left" else -step.end_turn
+    return turn_state(robot, np.concatenate([q, prev.v[-1]]), -yaw)
 
 
 def step_mismatch(robot: Robot, prev: Motion, nxt: Motion) -> float:

@@ -27,9 +27,9 @@ import numpy as np
 from cocomopl.dataset.plan import default_transitions, successors, training_specs
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
-from cocomopl.gait import foot_separation
+from cocomopl.gait import check_footstep, foot_separation, footstep_origin
 from cocomopl.kinematics import check_reach, double_support_posture
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import Footstep, Motion, StepSpec, as_footstep
 from cocomopl.motion_file import read_motions, writable_folder, write_motions
 from cocomopl.ocp.action_models import knee_bounds
 from cocomopl.ocp.settings import OCPSettings
@@ -60,10 +60,10 @@ class JobResult:
 
 
 def length_job(
-    robot_name: str, settings: dict, length: float, kinds: list[str], cyclic: Motion | None = None,
+    robot_name: str, settings: dict, length: float | Footstep, kinds: list[str], cyclic: Motion | None = None,
     walk_guess: np.ndarray | None = None, walk_controls: list[np.ndarray] | None = None,
 ) -> JobResult:
-    """The ``kinds`` among cyclic, start and stop steps of one length (runs in a worker:
+    """The ``kinds`` among cyclic, start and stop steps of one length or footstep (runs in a worker:
     plain data in and out).  An already solved ``cyclic`` step fixes the start state;
     ``walk_guess``, the warm-up walk of a neighbouring length or the model's (with its torques
     ``walk_controls``), warm-starts this length's."""
@@ -281,19 +281,26 @@ class Executor:
             self.pool.shutdown(cancel_futures=True)
 
 
-def check_stances(robot: Robot, lengths: tuple[float, ...], settings: OCPSettings) -> None:
-    """Refuse before any solving, with an :class:`Error`, a step length beyond the robot's
-    reach or a knee bend its knees cannot make."""
-    check_reach(robot, lengths)
-    for length in lengths:
-        double_support_posture(robot, (-length, foot_separation(robot)), (0.0, 0.0))
+def check_stances(robot: Robot, lengths: tuple, settings: OCPSettings) -> None:
+    """Refuse before any solving, with an :class:`Error`, a step length (or footstep) beyond
+    the robot's reach, a footstep out of range or with colliding feet, or a knee bend its
+    knees cannot make."""
+    footsteps = [as_footstep(f) for f in lengths]
+    check_reach(robot, [abs(f.length) for f in footsteps])
+    separation = foot_separation(robot)
+    for footstep in footsteps:
+        if not footstep.straight:
+            check_footstep(robot, "left", *footstep)
+        # as the gait state S of the footstep stands
+        left = footstep_origin(np.zeros(3), "right", *footstep, separation)
+        double_support_posture(robot, (left[0], left[1]), (0.0, 0.0), yaws=(left[2], 0.0))
     knee_bounds(robot, settings.min_knee_flexion)
 
 
 def generate(
     output: str | Path,
-    lengths: tuple[float, ...],
-    extra_transitions: tuple[tuple[float, float], ...] | None = None,
+    lengths: tuple,
+    extra_transitions: tuple | None = None,
     robot_name: str = DEFAULT_ROBOT,
     settings: OCPSettings | None = None,
     workers: int | None = None,
@@ -304,12 +311,13 @@ def generate(
     walk_guesses: dict[float, tuple] | None = None,
     record: dict | None = None,
 ) -> dict:
-    """Solve the training set for ``lengths`` (m) and ``extra_transitions`` (pairs of them;
-    None: :func:`~cocomopl.dataset.plan.default_transitions`) and write the dataset to ``output``.
+    """Solve the training set for ``lengths`` (m; or footsteps, :class:`~cocomopl.motion.Footstep`)
+    and ``extra_transitions`` (pairs of them; None: :func:`~cocomopl.dataset.plan.default_transitions`)
+    and write the dataset to ``output``.
 
     Parts of an earlier run in ``<output>.parts/`` are reused if they pass
     :func:`_finished_part`, and so are the steps ``known`` (those of a dataset being grown).
-    ``walk_guesses``: per length, the warm-up walk's initial states and torques (a grown
+    ``walk_guesses``: per length (or footstep), the warm-up walk's initial states and torques (a grown
     length's, from the model); those lengths are solved each from its own guess, not by
     continuation.  ``record`` is added to the dataset's attributes.  ``workers`` local processes (at most :func:`max_workers`), or
     the Dask cluster at ``scheduler``, solve the rest.  The command line also bounds
@@ -350,7 +358,11 @@ def generate(
                     f"no OCP converged with these settings (dt {settings.dt:g} s, at most {settings.max_iterations} "
                     f"iterations per attempt; {len(specs)} OCPs); nothing written"
                 )
-            run = {"lengths_m": list(lengths), "extra_transitions_m": [list(pair) for pair in extra_transitions],
+            footsteps = [as_footstep(f) for f in lengths]
+            omni = {"footsteps_m_rad": [list(f) for f in footsteps]} if not all(f.straight for f in footsteps) else {}
+            run = {"lengths_m": [f.length for f in footsteps if f.straight], **omni,
+                   "extra_transitions_m": [[as_footstep(a).length, as_footstep(b).length] if omni == {} else
+                                           [list(as_footstep(a)), list(as_footstep(b))] for a, b in extra_transitions],
                    "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
                    "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
                    "continuation": continuation,
@@ -418,22 +430,22 @@ def _solve_missing(
     try:
         # lengths first: every transition starts and ends in a cyclic step's start state
         todo = {}
-        for L in [s.start_length for s in specs if s.kind == "cyclic"]:  # one per length
-            missing = [s.kind for s in specs if s.kind != "transition" and L in (s.start_length, s.end_length)
+        for f in [s.start_footstep for s in specs if s.kind == "cyclic"]:  # one per footstep
+            missing = [s.kind for s in specs if s.kind != "transition" and f in (s.start_footstep, s.end_footstep)
                        and s not in done]
             if missing:
-                todo[L] = missing
+                todo[f] = missing
         if walk_guesses:
             record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses)
         else:
             record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one)
-        cyclic = {s.start_length: m for s, m in done.items() if s.kind == "cyclic"}
+        cyclic = {s.start_footstep: m for s, m in done.items() if s.kind == "cyclic"}
         futures = {}
         for spec in specs:
             if spec.kind != "transition" or spec in done:
                 continue
-            if spec.start_length in cyclic and spec.end_length in cyclic:
-                ends = cyclic[spec.start_length], cyclic[spec.end_length]
+            if spec.start_footstep in cyclic and spec.end_footstep in cyclic:
+                ends = cyclic[spec.start_footstep], cyclic[spec.end_footstep]
                 futures[executor.submit(transition_job, robot_name, settings.as_dict(), spec, *ends)] = spec
             else:
                 failed[spec.name] = [{"error": "a cyclic step it joins did not converge"}]
@@ -447,29 +459,30 @@ def _solve_missing(
 SWEEPS = ("ascending", "descending")
 
 
-def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[float, list[str]],
+def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[Footstep, list[str]],
                            done: dict[StepSpec, Motion], collect) -> dict:
-    """Solve the missing ``todo[L]`` kinds of each length by continuation, and pass each length's
-    chosen result to ``collect``.
+    """Solve the missing ``todo[L]`` kinds of each length (or footstep) by continuation, and
+    pass each length's chosen result to ``collect``.
 
     Two sweeps run side by side, one up the lengths and one down, each length's warm-up walk
     (whose second cyclic step gives ``S(L)`` and whose steps warm-start the length's OCPs)
     warm-started from the walk of the length solved before it in the same sweep, so that
     neighbours stay on one solution branch.  Where the sweeps disagree, the length takes the
-    sweep whose OCPs converged more often, then the lower summed cost.  Returns, per length
-    (mm), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
+    sweep whose OCPs converged more often, then the lower summed cost.  Footsteps are swept
+    in the order of (length, width, turn).  Returns, per length (mm; a footstep's
+    :attr:`~cocomopl.motion.Footstep.label`), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
     and the sweep chosen.
     """
     order = sorted(todo)
     if not order:
         return {}
     chains = {sweep: order if sweep == "ascending" else order[::-1] for sweep in SWEEPS[: 1 if len(order) < 2 else 2]}
-    results: dict[float, dict[str, JobResult]] = {L: {} for L in order}
+    results: dict[Footstep, dict[str, JobResult]] = {L: {} for L in order}
     pending = {}
 
     def submit(sweep: str, i: int, walk: np.ndarray | None) -> None:
         L = chains[sweep][i]
-        cyclic = done.get(StepSpec("cyclic", L, L))
+        cyclic = done.get(StepSpec.between("cyclic", L, L))
         pending[executor.submit(length_job, robot_name, settings.as_dict(), L, todo[L], cyclic, walk)] = (sweep, i)
 
     for sweep in chains:
@@ -483,20 +496,21 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
         if i + 1 < len(order):
             submit(sweep, i + 1, results[L][sweep].walk)
         if len(results[L]) == len(chains):
-            chosen, record[f"{1000 * L:g}"] = _choose_branch(results[L])
+            chosen, record[L.label] = _choose_branch(results[L])
             collect(results[L][chosen])
     return record
 
 
-def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[float, list[str]],
-                        done: dict[StepSpec, Motion], collect, guesses: dict[float, tuple]) -> dict:
-    """Solve the missing ``todo[L]`` kinds of each length at once, each length's warm-up walk
-    from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
-    futures = [executor.submit(length_job, robot_name, settings.as_dict(), L, kinds, done.get(StepSpec("cyclic", L, L)),
-                               *guesses.get(L, (None, None)))
+def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[Footstep, list[str]],
+                        done: dict[StepSpec, Motion], collect, guesses: dict) -> dict:
+    """Solve the missing ``todo[L]`` kinds of each length (or footstep) at once, each one's
+    warm-up walk from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
+    guesses = {as_footstep(L): guess for L, guess in guesses.items()}
+    futures = [executor.submit(length_job, robot_name, settings.as_dict(), L, kinds,
+                               done.get(StepSpec.between("cyclic", L, L)), *guesses.get(L, (None, None)))
                for L, kinds in todo.items()]
     collect(futures)
-    return {f"{1000 * L:g}": {"chosen": "model" if L in guesses else "kinematic"} for L in todo}
+    return {L.label: {"chosen": "model" if L in guesses else "kinematic"} for L in todo}
 
 
 def _choose_branch(by_sweep: dict[str, JobResult]) -> tuple[str, dict]:

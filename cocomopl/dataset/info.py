@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from cocomopl.errors import Error
+from cocomopl.motion import Footstep
 from cocomopl.motion_file import read_motions
 
 
@@ -27,6 +28,9 @@ def dataset_info(path: str | Path) -> dict:
         raise Error(f"{path}: a motion's solver statistics are incomplete ({type(exc).__name__}: {exc})") from None
     signals = n_signals.pop() if len(n_signals) == 1 else None
     lengths = _attribute(path, attrs, "lengths_m", list, [])
+    footsteps = _attribute(path, attrs, "footsteps_m_rad", list, [])
+    if not all(isinstance(f, list) and len(f) == 3 and all(isinstance(x, (int, float)) for x in f) for f in footsteps):
+        raise Error(f"{path}: attribute 'footsteps_m_rad' must hold [length, width, turn] triples of numbers")
     continuity = _attribute(path, attrs, "continuity", dict, {})
     _attribute(path, attrs, "ocps", list, [])
     _attribute(path, attrs, "failed", dict, {})
@@ -37,6 +41,7 @@ def dataset_info(path: str | Path) -> dict:
         "file": str(path),
         "robot": attrs.get("robot"),
         "lengths_mm": [round(1000 * L) for L in lengths],
+        "footsteps": [Footstep(*f).label for f in footsteps],
         "ocps": len(attrs.get("ocps", [])),
         "motions": len(names),
         "signals": signals,
@@ -71,6 +76,7 @@ def format_info(info: dict) -> str:
         ("file", info["file"]),
         ("robot", info["robot"]),
         ("step lengths (mm)", ", ".join(map(str, info["lengths_mm"]))),
+        *([("footsteps (mm, mm, deg)", ", ".join(info["footsteps"]))] if info["footsteps"] else []),
         ("OCPs solved / motions", f"{info['ocps']} / {info['motions']} (with mirror images)"),
         ("signals per motion", info["signals"]),
         ("training trajectories", info["trajectories"]),

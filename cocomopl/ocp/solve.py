@@ -20,7 +20,7 @@ from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, foot_separation
 from cocomopl.kinematics import double_support_posture
-from cocomopl.motion import Footstep, Motion, StepSpec
+from cocomopl.motion import Footstep, Motion, StepSpec, as_footstep
 from cocomopl.ocp.problems import (
     StepPlan,
     build_problem,
@@ -290,11 +290,6 @@ def length_steps(footstep: float | Footstep) -> dict[str, StepSpec]:
         "start": StepSpec.between("start", rest, footstep),
         "stop": StepSpec.between("stop", footstep, rest),
     }
-
-
-def as_footstep(footstep: float | Footstep) -> Footstep:
-    """A footstep, or the straight one of a step length (m)."""
-    return footstep if isinstance(footstep, Footstep) else Footstep(float(footstep))
 
 
 def solve_length(
