@@ -36,9 +36,12 @@ class Footstep(NamedTuple):
         return length if self.straight else f"{length}_w{1000 * self.width:g}_t{math.degrees(self.turn):.4g}"
 
 
-def as_footstep(footstep: float | Footstep) -> Footstep:
-    """A footstep, or the straight one of a step length (m)."""
-    return footstep if isinstance(footstep, Footstep) else Footstep(float(footstep))
+def as_footstep(footstep: float | tuple) -> Footstep:
+    """A footstep from a footstep, a (length, width, turn) triple or a step length (m; the
+    straight footstep of that length: what :attr:`Footstep.gait_key` gives back)."""
+    if isinstance(footstep, Footstep):
+        return footstep
+    return Footstep(*map(float, footstep)) if isinstance(footstep, tuple) else Footstep(float(footstep))
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,9 @@ from cocomopl.motion import Footstep, StepSpec
 from cocomopl.motion_file import read_motion_group, read_motions, write_motion_group
 from cocomopl.ocp.problems import StepPlan, initial_guess, landing_point, landing_yaw, walk_phases
 from cocomopl.ocp.solve import failed_checks, solve_plan, step_plan, to_motion, walk_segment, warm_up_plan
+from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.primitives.model_file import load_model, save_model
+from cocomopl.primitives.training import FOOTSTEP_PARAMETERS, load_training_steps, step_lengths, with_step_lengths
 from cocomopl.robot import mirror_motion
 
 from conftest import SMALL, TURN
@@ -194,3 +197,35 @@ def test_a_steady_turn_is_solved_mirrored_and_passes_every_check_of_the_dataset(
     mirrored = motions[StepSpec.between("transition", right, left, "right").name]
     np.testing.assert_allclose(sole_pose(robot, mirrored.q[-1], "right"),
                                footstep_pose(np.zeros(3), "right", *left, separation), atol=2e-3)
+
+
+def test_step_parameters_of_a_footstep_read_back_and_a_model_of_straight_steps_refuses_a_turn():
+    z = step_lengths(TURNING, FOOTSTEP_PARAMETERS)
+    back = with_step_lengths(StepSpec("transition", 0.0, 0.0), z)
+    np.testing.assert_allclose([back.start_length, back.end_length, *back.omni_parameters()],
+                               [TURNING.start_length, TURNING.end_length, *TURNING.omni_parameters()], atol=1e-15)
+    straight = StepSpec("cyclic", 0.2, 0.2)
+    assert step_lengths(straight).tolist() == [0.2, 0.2]
+    assert step_lengths(straight, FOOTSTEP_PARAMETERS).tolist() == [0.2, 0.2, 0, 0, 0, 0]
+    with pytest.raises(Error, match="turns or side-steps, and the model knows straight steps only"):
+        step_lengths(TURNING)
+
+
+@pytest.fixture(scope="module")
+def turning_model(turning_dataset):
+    steps = load_training_steps(turning_dataset)
+    return steps, MovementPrimitives(n_primitives=3, kernel="matern52", n_grid=30, max_iterations=20).fit(steps)
+
+
+def test_a_model_of_footsteps_predicts_its_training_turns_and_round_trips_through_its_file(tmp_path, turning_model):
+    steps, model = turning_model
+    assert model.state_["lengths"].shape[-1] == FOOTSTEP_PARAMETERS
+    turn = StepSpec.between("transition", *TURN)
+    step = model.predict(turn)
+    assert step.distance == 0.0 and step.in_support
+    X, X_hat = model.reconstruct(steps)
+    k = steps.specs.index(turn)
+    assert np.sqrt(np.mean((X[k] - X_hat[k]) ** 2)) < 0.5 * np.sqrt(np.mean((X[k] - X.mean(axis=0)) ** 2))
+    save_model(tmp_path / "m.npz", model, {"dataset": {}})
+    again = load_model(tmp_path / "m.npz")
+    np.testing.assert_array_equal(again.predict(turn).values, step.values)

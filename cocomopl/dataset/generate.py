@@ -29,7 +29,7 @@ from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
 from cocomopl.gait import check_footstep, foot_separation, footstep_origin
 from cocomopl.kinematics import check_reach, double_support_posture
-from cocomopl.motion import Footstep, Motion, StepSpec, as_footstep
+from cocomopl.motion import Motion, StepSpec, as_footstep
 from cocomopl.motion_file import read_motions, writable_folder, write_motions
 from cocomopl.ocp.action_models import knee_bounds
 from cocomopl.ocp.settings import OCPSettings
@@ -60,7 +60,7 @@ class JobResult:
 
 
 def length_job(
-    robot_name: str, settings: dict, length: float | Footstep, kinds: list[str], cyclic: Motion | None = None,
+    robot_name: str, settings: dict, length: float | tuple, kinds: list[str], cyclic: Motion | None = None,
     walk_guess: np.ndarray | None = None, walk_controls: list[np.ndarray] | None = None,
 ) -> JobResult:
     """The ``kinds`` among cyclic, start and stop steps of one length or footstep (runs in a worker:
@@ -434,7 +434,7 @@ def _solve_missing(
             missing = [s.kind for s in specs if s.kind != "transition" and f in (s.start_footstep, s.end_footstep)
                        and s not in done]
             if missing:
-                todo[f] = missing
+                todo[f.gait_key] = missing
         if walk_guesses:
             record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses)
         else:
@@ -459,10 +459,11 @@ def _solve_missing(
 SWEEPS = ("ascending", "descending")
 
 
-def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[Footstep, list[str]],
+def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict,
                            done: dict[StepSpec, Motion], collect) -> dict:
-    """Solve the missing ``todo[L]`` kinds of each length (or footstep) by continuation, and
-    pass each length's chosen result to ``collect``.
+    """Solve the missing ``todo[L]`` kinds of each length (or footstep, by its
+    :attr:`~cocomopl.motion.Footstep.gait_key`) by continuation, and pass each length's chosen
+    result to ``collect``.
 
     Two sweeps run side by side, one up the lengths and one down, each length's warm-up walk
     (whose second cyclic step gives ``S(L)`` and whose steps warm-start the length's OCPs)
@@ -473,16 +474,17 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
     :attr:`~cocomopl.motion.Footstep.label`), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
     and the sweep chosen.
     """
-    order = sorted(todo)
+    order = sorted(todo, key=as_footstep)
     if not order:
         return {}
     chains = {sweep: order if sweep == "ascending" else order[::-1] for sweep in SWEEPS[: 1 if len(order) < 2 else 2]}
-    results: dict[Footstep, dict[str, JobResult]] = {L: {} for L in order}
+    results: dict[float | tuple, dict[str, JobResult]] = {L: {} for L in order}
     pending = {}
 
     def submit(sweep: str, i: int, walk: np.ndarray | None) -> None:
         L = chains[sweep][i]
-        cyclic = done.get(StepSpec.between("cyclic", L, L))
+        f = as_footstep(L)
+        cyclic = done.get(StepSpec.between("cyclic", f, f))
         pending[executor.submit(length_job, robot_name, settings.as_dict(), L, todo[L], cyclic, walk)] = (sweep, i)
 
     for sweep in chains:
@@ -496,21 +498,21 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
         if i + 1 < len(order):
             submit(sweep, i + 1, results[L][sweep].walk)
         if len(results[L]) == len(chains):
-            chosen, record[L.label] = _choose_branch(results[L])
+            chosen, record[as_footstep(L).label] = _choose_branch(results[L])
             collect(results[L][chosen])
     return record
 
 
-def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict[Footstep, list[str]],
+def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict,
                         done: dict[StepSpec, Motion], collect, guesses: dict) -> dict:
-    """Solve the missing ``todo[L]`` kinds of each length (or footstep) at once, each one's
-    warm-up walk from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
-    guesses = {as_footstep(L): guess for L, guess in guesses.items()}
+    """Solve the missing ``todo[L]`` kinds of each length (or footstep's gait key) at once, each
+    one's warm-up walk from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
     futures = [executor.submit(length_job, robot_name, settings.as_dict(), L, kinds,
-                               done.get(StepSpec.between("cyclic", L, L)), *guesses.get(L, (None, None)))
+                               done.get(StepSpec.between("cyclic", as_footstep(L), as_footstep(L))),
+                               *guesses.get(L, (None, None)))
                for L, kinds in todo.items()]
     collect(futures)
-    return {L.label: {"chosen": "model" if L in guesses else "kinematic"} for L in todo}
+    return {as_footstep(L).label: {"chosen": "model" if L in guesses else "kinematic"} for L in todo}
 
 
 def _choose_branch(by_sweep: dict[str, JobResult]) -> tuple[str, dict]:

@@ -29,6 +29,7 @@ from cocomopl.primitives.training import (
     phase_templates,
     resample,
     resample_step,
+    parameter_count,
     step_lengths,
     step_type,
 )
@@ -82,7 +83,8 @@ class PredictedStep:
         post-impact, as a :class:`~cocomopl.motion.Motion` does
     values, std : (T, I) posterior mean and standard deviation of the signals
     durations, duration_std : (P,) phase durations and their standard deviation, s
-    distance : distance of (start, end) lengths to the nearest training step of the type, m
+    distance : distance of the step parameters (:func:`~cocomopl.primitives.training.step_lengths`)
+        to the nearest training step of the type, m
     in_support : whether that distance is within the training grid's spacing
     """
 
@@ -360,7 +362,7 @@ class MovementPrimitives:
     def _predict_trajectory(self, type_: str, spec: StepSpec, start: np.ndarray | None) -> PredictedStep:
         """:meth:`predict` for one learned trajectory type (a step type, or a part of one)."""
         c = self._type_arrays(type_)
-        z = step_lengths(spec)
+        z = step_lengths(spec, c["lengths"].shape[1])
         d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
         # weights of all (signal, primitive) pairs at once, flattened to (I*S,): cross-covariances
         # with the type's training steps, then the GP posterior mean and variance.  The nugget
@@ -457,10 +459,11 @@ class _SlotLayout:
         self.slots = [[k for k, t in enumerate(types) if t == type_] for type_ in self.types]
         G, N = len(self.types), max(len(s) for s in self.slots)
         self.mask = np.zeros((G, N))
-        self.lengths = np.zeros((G, N, 2))
+        count = parameter_count(steps.specs)
+        self.lengths = np.zeros((G, N, count))
         for g, ks in enumerate(self.slots):
             self.mask[g, : len(ks)] = 1.0
-            self.lengths[g, : len(ks)] = [step_lengths(steps.specs[k]) for k in ks]
+            self.lengths[g, : len(ks)] = [step_lengths(steps.specs[k], count) for k in ks]
         self.d2 = ((self.lengths[:, :, None] - self.lengths[:, None, :]) ** 2).sum(-1)
         self.n_steps = len(steps)
 

@@ -53,7 +53,7 @@ def _kernel(d2: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, nugget: np.nda
 
 def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Posterior variance (I, S) of the weights of trajectory type ``type_`` at lengths ``z``
-    (2,), had the type's training inputs been the trained ones plus ``added`` (n, 2).
+    (its step parameters), had the type's training inputs been the trained ones plus ``added`` (n, parameters).
 
     The model's weight posterior is a GP that observes each training step's weights with a
     noise of its own per (signal, primitive) (``Omega = (B^-1 + c I)^-1``); a new step is
@@ -64,7 +64,7 @@ def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, z:
     trained = arrays["lengths"]
     prior = _kernel(((trained[:, None] - trained[None]) ** 2).sum(-1), alpha, gamma, nugget)
     noise = np.diagonal(np.linalg.inv(arrays["C"].transpose(2, 0, 1)) - prior, axis1=1, axis2=2).mean(-1)
-    inputs = np.vstack([trained, added.reshape(-1, 2)])
+    inputs = np.vstack([trained, added.reshape(-1, trained.shape[1])])
     K = _kernel(((inputs[:, None] - inputs[None]) ** 2).sum(-1), alpha, gamma, nugget)
     K += noise[:, None, None] * np.eye(len(inputs))
     b = _kernel(((inputs - z) ** 2).sum(-1), alpha, gamma, nugget)  # (K, n)
@@ -76,11 +76,11 @@ def variance_left(model: MovementPrimitives, length: float, added: list[float]) 
     """The score of ``length`` (see the module) given the lengths ``added`` to the trained ones."""
     energy = (model.state_["m"] ** 2).sum(axis=1)  # |MP_s|^2 over the grid, (S,)
     prior = model.state_["alpha_w"] @ energy  # (I,)
-    fractions = []
+    fractions, count = [], model.state_["lengths"].shape[-1]
     for spec in length_steps_of(length):
-        new_inputs = np.array([step_lengths(s) for L in added for s in length_steps_of(L) if s.kind == spec.kind])
+        new_inputs = np.array([step_lengths(s, count) for L in added for s in length_steps_of(L) if s.kind == spec.kind])
         for type_ in model._trajectory_types(step_type(spec)):
-            var = weight_variance(model, type_, new_inputs, step_lengths(spec))
+            var = weight_variance(model, type_, new_inputs, step_lengths(spec, count))
             fractions.append(np.mean(var @ energy / prior))
     return float(np.mean(fractions))
 

@@ -15,7 +15,6 @@ a hand-edited file whose checksum was recomputed, and whatever prediction, synth
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import json
@@ -35,7 +34,13 @@ from cocomopl.motion import STEP_KINDS, StepSpec
 from cocomopl.motion_file import atomic_path
 from cocomopl.primitives import TIME_KERNELS
 from cocomopl.primitives.estimator import SIGNAL_GROUPS, MovementPrimitives, PredictedStep, signal_groups
-from cocomopl.primitives.training import TrainingSteps, learned_parts
+from cocomopl.primitives.training import (
+    FOOTSTEP_PARAMETERS,
+    STRAIGHT_PARAMETERS,
+    TrainingSteps,
+    learned_parts,
+    with_step_lengths,
+)
 from cocomopl.robot.description import read_description
 
 FORMAT = "cocomopl-model"
@@ -57,12 +62,13 @@ _AXES = {
     "N": "training steps per type at most",
     "P": "phases per type at most",
     "B": "phase boundaries per type at most",
-    "2": "step lengths (start, end)",
+    "Z": "step parameters (start and end length; with footsteps their widths and turns too)",
 }
 # Every array of a fitted model's ``state_`` (prediction reads all but sigma, alpha_t and
 # ell_t, which describe the fit): its dtype kind, its axes (letters of _AXES) and the sign
-# its values must have: kernel amplitudes, widths and noise levels positive; lengths,
-# distances and the duration amplitudes (0 where a type has fewer phases) at least zero.
+# its values must have: kernel amplitudes, widths and noise levels positive; distances and
+# the duration amplitudes (0 where a type has fewer phases) at least zero; step lengths at
+# least zero in a model of straight steps (``_check_step_parameters``).
 # ``m_var``, ``m_cov_start`` and ``C`` have none: they are computed (co)variances, round-off may leave an
 # entry slightly below zero, and prediction clips what it derives from them.
 _ARRAYS = {
@@ -71,7 +77,7 @@ _ARRAYS = {
     "signal_names": ("U", "I", None),
     "unconditioned": ("b", "I", None),
     "types": ("U", "G", None),
-    "lengths": ("f", "GN2", ">=0"),
+    "lengths": ("f", "GNZ", None),
     "mask": ("f", "GN", None),
     "boundaries": ("f", "GB", None),
     # optimise._prediction_arrays
@@ -387,11 +393,12 @@ def _check_arrays(meta: dict, arrays: dict[str, np.ndarray]) -> None:
         "N": arrays["mask"].shape[1],
         "P": max(phases),
         "B": max(phases) + 1,
-        "2": 2,
+        "Z": _parameter_count(arrays["lengths"]),
     }
     for name, (_, axes, sign) in _ARRAYS.items():
         _check_shape(name, arrays[name], axes, sizes)
         _check_values(name, arrays[name], sign)
+    _check_step_parameters(arrays["lengths"])
     _check_grid(arrays["tau"])
     _check_unconditioned(arrays["unconditioned"], names)
     counts = _check_mask(arrays["mask"], types)
@@ -406,6 +413,21 @@ def _check_kind_and_ndim(name: str, a: np.ndarray, kinds: str, axes: str) -> Non
     if a.ndim != len(axes):
         counted = ", ".join(_AXES[axis] for axis in axes)
         raise _Invalid(f"array {name!r} has shape {a.shape}, expected {len(axes)} dimensions ({counted})")
+
+
+def _parameter_count(lengths: np.ndarray) -> int:
+    """How many step parameters the model takes: :data:`STRAIGHT_PARAMETERS` or :data:`FOOTSTEP_PARAMETERS`."""
+    count = lengths.shape[-1]
+    if count not in (STRAIGHT_PARAMETERS, FOOTSTEP_PARAMETERS):
+        raise _Invalid(f"array 'lengths' holds {count} step parameters, expected {STRAIGHT_PARAMETERS} (start and end "
+                       f"length) or {FOOTSTEP_PARAMETERS} (and their widths and turns)")
+    return count
+
+
+def _check_step_parameters(lengths: np.ndarray) -> None:
+    """Straight steps go forward: a model of them has no negative length."""
+    if lengths.shape[-1] == STRAIGHT_PARAMETERS:
+        _check_values("lengths", lengths, ">=0")
 
 
 def _check_shape(name: str, a: np.ndarray, axes: str, sizes: dict[str, int]) -> None:
@@ -560,8 +582,8 @@ def _check_predictions(model: MovementPrimitives, types: list[str], counts: np.n
     for g, t in enumerate(types):
         if not _trajectories()[t].first:  # predicted with the first part
             continue
-        for start_length, end_length in lengths[g, : counts[g]]:
-            spec = dataclasses.replace(_trajectories()[t].spec, start_length=start_length, end_length=end_length)
+        for z in lengths[g, : counts[g]]:
+            spec = with_step_lengths(_trajectories()[t].spec, z)
             with np.errstate(all="ignore"):  # what overflows is refused below
                 step = model.predict(spec)
                 if spec.kind != "start":

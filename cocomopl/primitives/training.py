@@ -10,7 +10,7 @@ phase durations themselves become regression targets.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -28,9 +28,45 @@ def step_type(spec: StepSpec) -> str:
     return f"{spec.kind}_{spec.swing_side}"
 
 
-def step_lengths(spec: StepSpec) -> np.ndarray:
-    """The continuous part of the step parameters, (start length, end length) in m."""
-    return np.array([spec.start_length, spec.end_length])
+# Weights of a footstep's width (m/m) and turn (m/rad) in the weight GPs' inputs, which
+# measure everything in metres of step length: each maps its range (FOOTSTEP_RANGE: 200 mm,
+# 50 degrees) onto the lengths' 550 mm, so that one kernel width spans the three alike.
+WIDTH_SCALE = 2.75
+TURN_SCALE = 0.63
+STRAIGHT_PARAMETERS = 2  # start and end length: all a model of straight steps has
+FOOTSTEP_PARAMETERS = 6  # and the start and end widths and turns
+
+
+def step_lengths(spec: StepSpec, count: int = STRAIGHT_PARAMETERS) -> np.ndarray:
+    """The continuous part of the step parameters, as the weight GPs take them: (start length,
+    end length) in m and, for ``count`` = :data:`FOOTSTEP_PARAMETERS`, the start and end widths
+    and turns scaled to metres (:data:`WIDTH_SCALE`, :data:`TURN_SCALE`).
+
+    Raises
+    ------
+    Error
+        For a step that turns or side-steps and a ``count`` that has no room for it.
+    """
+    if count == STRAIGHT_PARAMETERS:
+        if not spec.straight:
+            raise Error(f"step {spec.name} turns or side-steps, and the model knows straight steps only")
+        return np.array([spec.start_length, spec.end_length])
+    return np.array([spec.start_length, spec.end_length, WIDTH_SCALE * spec.start_width, WIDTH_SCALE * spec.end_width,
+                     TURN_SCALE * spec.start_turn, TURN_SCALE * spec.end_turn])
+
+
+def with_step_lengths(spec: StepSpec, z: np.ndarray) -> StepSpec:
+    """``spec`` with the step parameters ``z`` (as :func:`step_lengths` gives them)."""
+    values = {"start_length": float(z[0]), "end_length": float(z[1])}
+    if len(z) == FOOTSTEP_PARAMETERS:
+        values.update(start_width=float(z[2]) / WIDTH_SCALE, end_width=float(z[3]) / WIDTH_SCALE,
+                      start_turn=float(z[4]) / TURN_SCALE, end_turn=float(z[5]) / TURN_SCALE)
+    return replace(spec, **values)
+
+
+def parameter_count(specs: list[StepSpec]) -> int:
+    """How many step parameters a model of ``specs`` takes: lengths only if all are straight."""
+    return STRAIGHT_PARAMETERS if all(s.straight for s in specs) else FOOTSTEP_PARAMETERS
 
 
 @dataclass
