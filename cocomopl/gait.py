@@ -85,18 +85,26 @@ def check_footstep(robot: Robot, side: str, length: float, width: float, turn: f
 
 
 def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
-    """Where each sole stands at each step's start and end, world frame (x forward, z up)."""
-    y = foot_separation(robot) / 2
-    feet = {"left": np.array([0.0, y, 0.0]), "right": np.array([0.0, -y, 0.0])}
+    """Where each sole stands at each step's start and end, world frame (x forward, z up):
+    ``"start"`` and ``"end"`` positions (3,) by side, and under ``"yaw"`` the soles' yaws
+    (rad) at the ``"start"`` and ``"end"``.  The walk starts with the soles side by side,
+    facing +x, the right one at y = -separation/2."""
+    separation = foot_separation(robot)
+    poses = {"left": np.array([0.0, separation / 2, 0.0]), "right": np.array([0.0, -separation / 2, 0.0])}
     out = []
     for spec in specs:
-        start = {k: v.copy() for k, v in feet.items()}
-        stance = OTHER_SIDE[spec.swing_side]
-        landing = feet[stance][0] + (spec.start_length if spec.kind == "stop" else spec.end_length)
-        feet[spec.swing_side][0] = landing
+        start = {k: v.copy() for k, v in poses.items()}
+        stance, swing = OTHER_SIDE[spec.swing_side], spec.swing_side
+        footstep = spec.start_footstep if spec.kind == "stop" else spec.end_footstep
+        poses[swing] = footstep_pose(poses[stance], swing, *footstep, separation)
         if spec.kind == "stop":  # the stance foot closes up beside it
-            feet[stance][0] = landing
-        out.append({"start": start, "end": {k: v.copy() for k, v in feet.items()}})
+            poses[stance] = footstep_pose(poses[swing], stance, 0.0, 0.0, 0.0, separation)
+        out.append({
+            "start": {side: np.array([p[0], p[1], 0.0]) for side, p in start.items()},
+            "end": {side: np.array([p[0], p[1], 0.0]) for side, p in poses.items()},
+            "yaw": {"start": {side: float(p[2]) for side, p in start.items()},
+                    "end": {side: float(p[2]) for side, p in poses.items()}},
+        })
     return out
 
 
@@ -111,8 +119,17 @@ def phase_plan(spec: StepSpec) -> list[tuple[str, str | None]]:
 
 def ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
     """Where a sole stands in a phase: its start position until it has swung, then its end."""
-    swung = any(air == side for _, air in plan[:phase])
-    return feet["end" if swung else "start"][side]
+    return feet[_when(plan, side, phase)][side]
+
+
+def ground_yaw(feet: dict, plan: list, side: str, phase: int) -> float:
+    """The yaw (rad) of a sole in a phase, as :func:`ground_position` places it."""
+    return feet["yaw"][_when(plan, side, phase)][side]
+
+
+def _when(plan: list, side: str, phase: int) -> str:
+    """``"end"`` once sole ``side`` has swung by ``phase`` of the step's ``plan``, else ``"start"``."""
+    return "end" if any(air == side for _, air in plan[:phase]) else "start"
 
 
 

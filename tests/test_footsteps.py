@@ -4,6 +4,7 @@ that turn, side-step and step backward (issue #25, first part)."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -12,10 +13,19 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from cocomopl.analysis.feasibility import check_motion
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.dataset.check import check_dataset
 from cocomopl.errors import Error
-from cocomopl.gait import FEET_GAP, check_footstep, foot_separation, footstep_origin, footstep_pose
+from cocomopl.gait import (
+    FEET_GAP,
+    check_footstep,
+    foot_separation,
+    footstep_origin,
+    footstep_pose,
+    footsteps,
+    sequence_specs,
+)
 from cocomopl.kinematics import double_support_posture, flat_placement, soles_distance
 from cocomopl.motion import Footstep, StepSpec
 from cocomopl.motion_file import read_motion_group, read_motions, write_motion_group
@@ -25,6 +35,8 @@ from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.model_file import load_model, save_model
 from cocomopl.primitives.training import FOOTSTEP_PARAMETERS, load_training_steps, step_lengths, with_step_lengths
 from cocomopl.robot import mirror_motion
+from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, in_next_step_frame
+from cocomopl.synthesis.world import place_steps
 
 from conftest import SMALL, TURN
 
@@ -229,3 +241,56 @@ def test_a_model_of_footsteps_predicts_its_training_turns_and_round_trips_throug
     save_model(tmp_path / "m.npz", model, {"dataset": {}})
     again = load_model(tmp_path / "m.npz")
     np.testing.assert_array_equal(again.predict(turn).values, step.values)
+
+
+def test_the_footsteps_of_a_turning_walk_chain_and_a_straight_walk_keeps_its_old_arithmetic(robot):
+    separation = foot_separation(robot)
+    left, right = TURN
+    specs = [StepSpec.between("start", Footstep(0.0), left), StepSpec.between("transition", left, right, "right"),
+             StepSpec.between("stop", right, Footstep(0.0))]
+    feet = footsteps(robot, specs)
+    # the right sole lands the right footstep from where the left one landed, and so on
+    pose = {side: np.array([*feet[0]["end"][side][:2], feet[0]["yaw"]["end"][side]]) for side in ("left", "right")}
+    np.testing.assert_allclose(pose["left"], footstep_pose(np.array([0, -separation / 2, 0]), "left", *left, separation))
+    landed = footstep_pose(pose["left"], "right", *right, separation)
+    np.testing.assert_allclose([*feet[1]["end"]["right"][:2], feet[1]["yaw"]["end"]["right"]], landed)
+    assert feet[1]["yaw"]["end"]["right"] == pytest.approx(math.radians(30))  # a steady turn: 15 degrees a step
+    # the stop lands its footstep again and closes the other sole up beside it, parallel
+    assert feet[2]["yaw"]["end"]["left"] == feet[2]["yaw"]["end"]["right"] == pytest.approx(math.radians(15))
+    straight = footsteps(robot, sequence_specs([0.15, 0.25, 0.25]))
+    assert [f["end"]["left"][0] for f in straight] == [0.15, 0.15, 0.65] and straight[-1]["end"]["right"][0] == 0.65
+    assert {f["end"]["left"][1] for f in straight} == {separation / 2} and {f["end"]["right"][1] for f in straight} == {-separation / 2}
+    assert all(yaw == 0.0 for f in straight for when in ("start", "end") for yaw in f["yaw"][when].values())
+
+
+def test_a_step_is_conditioned_on_the_end_of_the_last_in_its_own_turned_frame(turning_model):
+    _, model = turning_model
+    end = np.arange(len(model.signal_names), dtype=float)
+    yaw = model.signal_names.index("pelvis_yaw")
+    left, right = TURN
+    after_left = in_next_step_frame(model, StepSpec.between("start", Footstep(0.0), left), end)
+    after_right = in_next_step_frame(model, StepSpec.between("transition", left, right, "right"), end)
+    assert after_left[yaw] == pytest.approx(end[yaw] - math.radians(15))  # the left sole toed out: turned left
+    assert after_right[yaw] == pytest.approx(end[yaw] - math.radians(15))  # the right one toed in: turned left too
+    np.testing.assert_array_equal(np.delete(after_left, yaw), np.delete(end, yaw))
+    assert in_next_step_frame(model, StepSpec("cyclic", 0.2, 0.2), end) is end
+
+
+def test_a_turning_walk_is_placed_on_its_turned_footsteps(robot, turning_model):
+    _, model = turning_model
+    left, right = TURN
+    specs = [StepSpec.between("start", Footstep(0.0), left), StepSpec.between("transition", left, right, "right"),
+             StepSpec.between("stop", right, Footstep(0.0))]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutOfSupportWarning)
+        walk = place_steps(robot, generate_steps(model, specs), dt=0.025)
+    feet = footsteps(robot, specs)
+    # every touchdown puts the sole on its planned, turned footstep
+    for k, impact in enumerate(walk.impacts[:2]):
+        side = specs[k].swing_side
+        planned = [*feet[k]["end"][side][:2], feet[k]["yaw"]["end"][side]]
+        np.testing.assert_allclose(sole_pose(robot, walk.q[impact + 1], side), planned, atol=1e-3)
+    for side in ("left", "right"):
+        planned = [*feet[-1]["end"][side][:2], feet[-1]["yaw"]["end"][side]]
+        np.testing.assert_allclose(sole_pose(robot, walk.q[-1], side), planned, atol=1e-3)
+    assert check_motion(robot, walk, SMALL.friction)["inverse_dynamics_residual"] < 1e-6

@@ -5,6 +5,8 @@ from __future__ import annotations
 import warnings
 from collections.abc import Sequence
 
+import numpy as np
+
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep, signal_groups
@@ -32,8 +34,22 @@ def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict:
                 raise Error(f"refused (--strict): {message}")
             warnings.warn(message, OutOfSupportWarning, stacklevel=2)
         steps.append(step)
-        end = step.values[-1]
+        end = in_next_step_frame(model, spec, step.values[-1])
     return steps
+
+
+def in_next_step_frame(model: MovementPrimitives, spec: StepSpec, end: np.ndarray) -> np.ndarray:
+    """The signals ``end`` at the end of step ``spec``, in the frame of the step after it.
+
+    Each step's signals are in its stance sole's frame; the next step stands on the sole
+    that just landed, turned by the step's footstep, so only the pelvis yaw changes.
+    """
+    turn = spec.end_turn if spec.swing_side == "left" else -spec.end_turn
+    if turn == 0.0:
+        return end
+    out = end.copy()
+    out[model.signal_names.index("pelvis_yaw")] -= turn
+    return out
 
 
 def joint_std_max(model: MovementPrimitives, step: PredictedStep) -> float:

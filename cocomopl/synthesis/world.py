@@ -1,8 +1,8 @@
 """Place a chain of predicted steps in the world and make it a :class:`Motion`.
 
 Each step's signals are resampled from its normalised grid to real time (cubic splines, so
-velocities and accelerations exist).  Footsteps follow from the step lengths; the pelvis
-takes the learned orientation, and its position comes by forward kinematics from the feet
+velocities and accelerations exist).  Footsteps follow from the step lengths (and widths
+and turns); the pelvis takes the learned orientation, turned with the stance sole, and its position comes by forward kinematics from the feet
 on the ground: from the stance foot in single support, blended from the old to the new
 stance foot over double support.  Torques and contact wrenches come from Pinocchio inverse
 dynamics of the resulting motion, so every analysis tool can read it like an OC motion.
@@ -15,7 +15,8 @@ import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
-from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, phase_plan
+from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan
+from cocomopl.kinematics import flat_placement
 from cocomopl.motion import Motion
 from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
@@ -138,10 +139,12 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
         weights = _anchor_weights(step, t, phase, first=(k == 0))
         plan = phase_plan(step.spec)
         joints, zmp_local, rpy = values[:, :n_joints], values[:, n_joints : n_joints + 3], values[:, n_joints + 3 :]
+        # the step's signals are in its stance sole's frame, which the footsteps may have turned
+        heading = flat_placement(0.0, 0.0, feet["yaw"]["start"][OTHER_SIDE[step.spec.swing_side]]).rotation
         q = np.empty((len(t), model.nq))
         zmp = np.empty((len(t), 3))
         for j in range(len(t)):
-            R = pin.rpy.rpyToMatrix(rpy[j])
+            R = heading @ pin.rpy.rpyToMatrix(rpy[j])
             q[j] = robot.q_ref
             q[j, :3] = 0.0
             q[j, 3:7] = [0, 0, 0, 1]
@@ -157,7 +160,8 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
             zmp[j] = position + R @ zmp_local[j]
         contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
         ground += [
-            [pin.SE3(np.eye(3), ground_position(feet, plan, side, p)) if c else None for side, c in zip(SIDES, row)]
+            [flat_placement(*ground_position(feet, plan, side, p)[:2], ground_yaw(feet, plan, side, p)) if c else None
+             for side, c in zip(SIDES, row)]
             for p, row in zip(phase, contact)
         ]
         for p in range(len(plan)):
