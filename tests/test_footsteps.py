@@ -37,6 +37,7 @@ from cocomopl.primitives.training import FOOTSTEP_PARAMETERS, load_training_step
 from cocomopl.robot import mirror_motion
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, in_next_step_frame
 from cocomopl.synthesis.world import place_steps
+from cocomopl.validation import check_steps
 
 from conftest import SMALL, TURN
 
@@ -294,3 +295,12 @@ def test_a_turning_walk_is_placed_on_its_turned_footsteps(robot, turning_model):
         planned = [*feet[-1]["end"][side][:2], feet[-1]["yaw"]["end"][side]]
         np.testing.assert_allclose(sole_pose(robot, walk.q[-1], side), planned, atol=1e-3)
     assert check_motion(robot, walk, SMALL.friction)["inverse_dynamics_residual"] < 1e-6
+
+
+def test_a_motion_file_takes_backward_and_turning_steps_within_the_range_and_refuses_others():
+    check_steps([StepSpec("start", 0.0, -0.12), TURNING, TURNING.mirrored()])
+    for bad, words in [(StepSpec("start", 0.0, -0.3), "length -0.3, not a number of metres in -0.15..0.8"),
+                       (replace(TURNING, end_turn=math.radians(40)), "has a turn of 0.698132, outside -0.436332..0.436332"),
+                       (replace(TURNING, start_width=0.3), "has a width of 0.3, outside -0.05..0.15")]:
+        with pytest.raises(Error, match=words):
+            check_steps([bad])
