@@ -39,8 +39,10 @@ from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, i
 from cocomopl.synthesis.world import place_steps
 from cocomopl.validation import check_steps
 
-from conftest import SMALL, TURN
+from conftest import SMALL, TURNED
 
+# a steady turn of 15 degrees a step: the left sole toes out, the right one follows toeing in
+TURN = (Footstep(0.2, 0.0, math.radians(15)), Footstep(0.2, 0.0, math.radians(-15)))
 TURNING = StepSpec("transition", 0.2, 0.25, "left", start_width=0.02, end_width=0.1,
                    start_turn=math.radians(-10), end_turn=math.radians(20))
 
@@ -192,24 +194,23 @@ def test_a_turning_warm_up_walk_ends_at_rest_and_its_segments_are_in_their_step_
                                    atol=2e-3)
 
 
-def test_a_steady_turn_is_solved_mirrored_and_passes_every_check_of_the_dataset(robot, turning_dataset):
+def test_a_turning_footstep_is_solved_mirrored_and_passes_every_check_of_the_dataset(robot, turning_dataset):
     motions, attrs = read_motions(turning_dataset, dataset=True)
-    left, right = TURN
-    specs = [StepSpec.between("cyclic", f, f) for f in TURN] + [StepSpec.between("start", Footstep(0.0), f) for f in TURN]
-    specs += [StepSpec.between("stop", f, Footstep(0.0)) for f in TURN]
-    specs += [StepSpec.between("transition", left, right), StepSpec.between("transition", right, left)]
+    rest = Footstep(0.0)
+    specs = [StepSpec.between("cyclic", TURNED, TURNED), StepSpec.between("start", rest, TURNED),
+             StepSpec.between("stop", TURNED, rest)]
     assert sorted(motions) == sorted(n for s in specs for n in (s.name, s.mirrored().name))
-    assert attrs["footsteps_m_rad"] == [list(f) for f in TURN] and attrs["all_converged"]
+    assert attrs["footsteps_m_rad"] == [list(TURNED)] and attrs["all_converged"]
     report = check_dataset(robot, motions, SMALL.friction, SMALL.dt)
-    assert report["ok"] and report["junctions"] == 36, report["worst"]  # continuity at every junction included
+    assert report["ok"] and report["junctions"] == 8, report["worst"]  # continuity at every junction included
     separation = foot_separation(robot)
     # the left sole toes out 15 degrees; the right one, mirrored, lands turned the other way
-    step = motions[StepSpec.between("transition", right, left).name]
-    np.testing.assert_allclose(sole_pose(robot, step.q[-1], "left"), footstep_pose(np.zeros(3), "left", *left, separation),
+    step = motions[StepSpec.between("cyclic", TURNED, TURNED).name]
+    np.testing.assert_allclose(sole_pose(robot, step.q[-1], "left"), footstep_pose(np.zeros(3), "left", *TURNED, separation),
                                atol=2e-3)
-    mirrored = motions[StepSpec.between("transition", right, left, "right").name]
+    mirrored = motions[StepSpec.between("cyclic", TURNED, TURNED, "right").name]
     np.testing.assert_allclose(sole_pose(robot, mirrored.q[-1], "right"),
-                               footstep_pose(np.zeros(3), "right", *left, separation), atol=2e-3)
+                               footstep_pose(np.zeros(3), "right", *TURNED, separation), atol=2e-3)
 
 
 def test_step_parameters_of_a_footstep_read_back_and_a_model_of_straight_steps_refuses_a_turn():
@@ -233,7 +234,7 @@ def turning_model(turning_dataset):
 def test_a_model_of_footsteps_predicts_its_training_turns_and_round_trips_through_its_file(tmp_path, turning_model):
     steps, model = turning_model
     assert model.state_["lengths"].shape[-1] == FOOTSTEP_PARAMETERS
-    turn = StepSpec.between("transition", *TURN)
+    turn = StepSpec.between("cyclic", TURNED, TURNED)
     step = model.predict(turn)
     assert step.distance == 0.0 and step.in_support
     X, X_hat = model.reconstruct(steps)
@@ -271,17 +272,18 @@ def test_a_step_is_conditioned_on_the_end_of_the_last_in_its_own_turned_frame(tu
     left, right = TURN
     after_left = in_next_step_frame(model, StepSpec.between("start", Footstep(0.0), left), end)
     after_right = in_next_step_frame(model, StepSpec.between("transition", left, right, "right"), end)
+    after_splay = in_next_step_frame(model, StepSpec.between("cyclic", left, left, "right"), end)
     assert after_left[yaw] == pytest.approx(end[yaw] - math.radians(15))  # the left sole toed out: turned left
     assert after_right[yaw] == pytest.approx(end[yaw] - math.radians(15))  # the right one toed in: turned left too
+    assert after_splay[yaw] == pytest.approx(end[yaw] + math.radians(15))  # the right one toed out: turned right
     np.testing.assert_array_equal(np.delete(after_left, yaw), np.delete(end, yaw))
     assert in_next_step_frame(model, StepSpec("cyclic", 0.2, 0.2), end) is end
 
 
 def test_a_turning_walk_is_placed_on_its_turned_footsteps(robot, turning_model):
     _, model = turning_model
-    left, right = TURN
-    specs = [StepSpec.between("start", Footstep(0.0), left), StepSpec.between("transition", left, right, "right"),
-             StepSpec.between("stop", right, Footstep(0.0))]
+    specs = [StepSpec.between("start", Footstep(0.0), TURNED), StepSpec.between("cyclic", TURNED, TURNED, "right"),
+             StepSpec.between("stop", TURNED, Footstep(0.0))]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutOfSupportWarning)
         walk = place_steps(robot, generate_steps(model, specs), dt=0.025)
