@@ -196,10 +196,25 @@ def test_a_conditioned_start_is_as_uncertain_as_its_observation(model):
     assert np.all(chained.std <= free.std + 1e-15)
 
 
+def test_a_conditioned_step_ends_where_its_footstep_puts_it(model):
+    """The start's innovation fades over the step, so errors do not pass from step to step
+    along a walk: a step conditioned on a start far from its own ends as the free prediction."""
+    specs = sequence_specs(list(M_GEN))
+    free = model.predict(specs[1])
+    start = free.values[0] + 0.05
+    chained = model.predict(specs[1], start=start)
+    conditioned = ~model.state_["unconditioned"]
+    np.testing.assert_allclose(chained.values[0, conditioned], start[conditioned], atol=1e-6)
+    np.testing.assert_allclose(chained.values[-1], free.values[-1], atol=1e-12)
+    moved = np.abs(chained.values - free.values)[:, conditioned].max(axis=1)
+    assert np.all(np.diff(moved) <= 1e-9)  # the correction only ever shrinks
+
+
 def test_the_predicted_std_is_the_spread_of_sampled_signals(model):
-    """The conditioned std is the spread left after the best linear prediction from the start,
-    on signals sampled from the unconditioned step: weights from their posterior, each
-    primitive's values at the start and at t drawn jointly."""
+    """The conditioned std is the spread left after the linear prediction from the start that
+    conditioning makes (the best one, tapered to nothing by the step's end), on signals
+    sampled from the unconditioned step: weights from their posterior, each primitive's
+    values at the start and at t drawn jointly."""
     specs = sequence_specs(list(M_GEN))
     free = model.predict(specs[1])
     chained = model.predict(specs[1], start=model.predict(specs[0]).values[-1])
@@ -219,7 +234,8 @@ def test_the_predicted_std_is_the_spread_of_sampled_signals(model):
     np.testing.assert_allclose(xt.std(axis=0), free.std[t], rtol=0.05)
     x0c, xtc = x0 - x0.mean(axis=0), xt - xt.mean(axis=0)
     beta = (xtc * x0c[:, None]).mean(axis=0) / (x0c**2).mean(axis=0)
-    left = (xtc - beta * x0c[:, None]).std(axis=0)
+    taper = 0.5 * (1.0 + np.cos(np.pi * model.state_["tau"][t]))[:, None]
+    left = (xtc - taper * beta * x0c[:, None]).std(axis=0)
     conditioned = ~model.state_["unconditioned"]
     np.testing.assert_allclose(left[:, conditioned], chained.std[t][:, conditioned], rtol=0.05)
 
