@@ -87,6 +87,33 @@ def _walk_lengths_mm(text: str) -> list[float]:
     return _checked(parse_sequence_mm, text)
 
 
+def _goal(text: str) -> tuple[float, float, float]:
+    from cocomopl.planning.goal import parse_goal
+
+    return _checked(parse_goal, text)
+
+
+def _footstep_file(text: str) -> list:
+    from cocomopl.planning.footsteps import read_landings
+
+    return _checked(read_landings, text)
+
+
+def _walk_request(args) -> dict:
+    """The walk asked for: ``lengths``, or footstep ``landings``, or a ``goal``."""
+    if args.footsteps is not None:
+        return {"lengths": None, "landings": args.footsteps}
+    if args.to is not None:
+        return {"lengths": None, "goal": args.to}
+    return {"lengths": args.lengths_mm}
+
+
+def _gait_grid(text: str) -> tuple:
+    from cocomopl.dataset.plan import parse_gait_grid
+
+    return _checked(parse_gait_grid, text)
+
+
 def _training_lengths_mm(text: str) -> tuple[float, ...]:
     from cocomopl.gait import parse_lengths_mm
 
@@ -188,9 +215,17 @@ def cmd_dataset_generate(args) -> int:
 
     # None: the default extra transitions of these lengths
     extra = None if args.extra_transitions_mm is None else parse_transitions_mm(args.extra_transitions_mm, args.lengths_mm)
+    lengths = args.lengths_mm
+    if args.gaits is not None:
+        from cocomopl.dataset.plan import gait_footsteps
+        from cocomopl.robot import Robot
+
+        if args.extra_transitions_mm is not None:
+            raise Error("--extra-transitions-mm joins straight lengths; a gait grid has its own transitions")
+        lengths, extra = gait_footsteps(Robot(args.robot), *args.gaits)
     _note_replacing(args.out, inputs=[args.robot])
     summary = generate_dataset(
-        args.out, args.lengths_mm, extra, args.robot, args.dt, args.max_iterations, args.load_transfer_weight,
+        args.out, lengths, extra, args.robot, args.dt, args.max_iterations, args.load_transfer_weight,
         args.min_knee_flexion_rad, args.workers, args.scheduler, args.command_line, progress=True,
     )
     table = (
@@ -301,8 +336,9 @@ def cmd_generate(args) -> int:
 
     _check_refine_options(args)
     _note_replacing(args.out, inputs=[args.model])
-    payload = generate_walk_file(args.lengths_mm, args.out, args.model, args.dt, args.first_swing, args.strict,
-                                 args.command_line, args.refine, args.data, progress=not args.json)
+    request = _walk_request(args)
+    payload = generate_walk_file(request.pop("lengths"), args.out, args.model, args.dt, args.first_swing, args.strict,
+                                 args.command_line, args.refine, args.data, progress=not args.json, **request)
     for message in payload["warnings"]:
         _warn(message)
     rows = payload["steps"]
@@ -366,23 +402,27 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_walk(args) -> int:
-    from cocomopl.pipeline import walk_report
+    from cocomopl.pipeline import walk_label, walk_report
 
     _check_refine_options(args)
     out = Path(args.out)
     _note_replacing(out, inputs=[args.model], folder=True)
-    payload = walk_report(args.lengths_mm, out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
+    request = _walk_request(args)
+    payload = walk_report(request.pop("lengths"), out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
                           progress=not args.json, contact_time_constant=args.contact_time_constant_s,
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
-                          strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data)
+                          strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data,
+                          **request)
     for message in payload["warnings"]:
         _warn(message)
-    lengths = ",".join(f"{x:g}" for x in payload["lengths_mm"])
-    lines = [f"walk {lengths} mm: {len(payload['steps'])} steps, generated in {payload['generation_s'] * 1e3:.2f} ms, "
+    lines = [f"walk {walk_label(args.lengths_mm if 'lengths_mm' in payload else None, args.to)}: "
+             f"{len(payload['steps'])} steps, generated in {payload['generation_s'] * 1e3:.2f} ms, "
              + ("refined by optimal control, " if args.refine else "")
              + f"simulated in MuJoCo ({'with' if payload['stabilizer'] else 'without'} stabilizer)",
              *(_refine_lines(payload["refine"]) if args.refine else []),
              _metrics_table(payload),
+             *([f"ended {100 * payload['final_position_error_m']:.1f} cm and {payload['final_yaw_error_deg']:.1f} deg from the goal"]
+               if "goal" in payload else []),
              f"report in {out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
     _emit(args, payload, "\n".join(lines))
     return 1 if payload["fell"] else 0
@@ -482,9 +522,16 @@ def _synthesis_options(parser: argparse.ArgumentParser) -> None:
     from cocomopl.gait import M_GEN_MM
     from cocomopl.pipeline import PLAN_DT
 
-    parser.add_argument("--lengths-mm", type=_walk_lengths_mm, default=M_GEN_MM, metavar="MM,MM,...",
-                        help="step lengths in millimetres, in order: start, ..., stop; the last two equal "
-                        f"(default: the paper's M_gen, {M_GEN_MM})")
+    walk = parser.add_mutually_exclusive_group()
+    walk.add_argument("--lengths-mm", type=_walk_lengths_mm, default=M_GEN_MM, metavar="MM,MM,...",
+                      help="step lengths in millimetres, straight ahead, in order: start, ..., stop; the last two "
+                      f"equal (default: the paper's M_gen, {M_GEN_MM})")
+    walk.add_argument("--footsteps", type=_footstep_file, metavar="FILE.csv",
+                      help="walk on the footsteps of a CSV file with columns x_m,y_m,yaw_deg,side, one landing per "
+                      "row (docs/cli.md#footstep-files)")
+    walk.add_argument("--to", type=_goal, metavar="X_M,Y_M,YAW_DEG",
+                      help="walk to a goal pose of the feet's midpoint, metres and degrees from the start, on "
+                      "footsteps planned within the model's learned range (docs/method.md#footstep-planner)")
     parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
     parser.add_argument("--dt", type=_positive_float, metavar="S",
                         help=f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})")
@@ -501,7 +548,7 @@ def _dataset_and_model_options(parser: argparse.ArgumentParser) -> None:
 
 def _dataset_parsers(sub) -> None:
     from cocomopl.dataset.generate import DT_RANGE_S, MIN_PHASE_KNOTS, WORKERS_PER_CORE
-    from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_LENGTHS_M
+    from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_GAIT_GRID_TEXT, DEFAULT_LENGTHS_M
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.primitives.growth import WARM_STARTS
     from cocomopl.robot import DEFAULT_ROBOT
@@ -512,8 +559,14 @@ def _dataset_parsers(sub) -> None:
 
     gen = dataset.add_parser("generate", help="solve the step OCPs and write the training dataset (HDF5)")
     lengths_mm = ",".join(f"{1000 * x:g}" for x in DEFAULT_LENGTHS_M)
-    gen.add_argument("--lengths-mm", type=_training_lengths_mm, default=DEFAULT_LENGTHS_M, metavar="MM,MM,...",
-                     help=f"training step lengths in millimetres (default: {lengths_mm})")
+    design = gen.add_mutually_exclusive_group()
+    design.add_argument("--gaits", type=_gait_grid, nargs="?", const=DEFAULT_GAIT_GRID_TEXT,
+                        metavar="LENGTHS_MM/WIDTHS_MM/TURNS_DEG",
+                        help="an omnidirectional set: the steady gaits of a grid of footstep lengths and widths (mm) "
+                        f"and turns (deg); alone, the default grid {DEFAULT_GAIT_GRID_TEXT}; a grid that starts with a "
+                        "minus sign is given as --gaits=-150,... (docs/method.md#omnidirectional-training-set)")
+    design.add_argument("--lengths-mm", type=_training_lengths_mm, default=DEFAULT_LENGTHS_M, metavar="MM,MM,...",
+                        help=f"training step lengths in millimetres, straight ahead (default: {lengths_mm})")
     extra = ",".join(f"{1000 * a:g}-{1000 * b:g}" for a, b in DEFAULT_EXTRA_TRANSITIONS_M)
     gen.add_argument("--extra-transitions-mm", metavar="A-B,...",
                      help="transitions between training lengths that are not neighbours, in millimetres, solved both "

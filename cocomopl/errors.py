@@ -6,3 +6,20 @@ class Error(Exception):
 
     The CLI prints its message on one line and exits non-zero, without a traceback.
     """
+
+
+def parse_finite(text: str, what: str) -> float:
+    """``text`` as a finite number, else an :class:`Error` naming ``what`` it was to be.
+
+    Only ASCII digits are taken: ``float`` also reads other scripts' digits.
+    """
+    text = str(text).strip()
+    try:
+        if not text.isascii():
+            raise ValueError
+        value = float(text)
+    except ValueError:
+        raise Error(f"{what} {text!r} is not a number in ASCII digits") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise Error(f"{what} {text!r} is not finite")
+    return value

@@ -374,7 +374,7 @@ def _dataset_identity(dataset: dict) -> dict:
 
 
 def generate_walk_file(
-    lengths: list[float],
+    lengths: list[float] | None,
     out: str | Path,
     model: str | Path | None = None,
     dt: float | None = None,
@@ -384,10 +384,13 @@ def generate_walk_file(
     refine_steps: bool = False,
     dataset: str | Path | None = None,
     progress: bool = False,
+    landings=None,
+    goal: tuple[float, float, float] | None = None,
 ) -> dict:
-    """Generate the walk of step ``lengths`` (m, start ... stop) with the primitives and
-    write it as one motion to ``out`` (HDF5); with ``refine_steps``, the walk refined by the
-    OCPs of ``dataset`` (default: the bundled one; :func:`cocomopl.pipeline.refine`).
+    """Generate a walk with the primitives and write it as one motion to ``out`` (HDF5); with
+    ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one;
+    :func:`cocomopl.pipeline.refine`).  The walk is given by step ``lengths`` (m, start ...
+    stop), footstep ``landings`` or a ``goal`` pose, as in :func:`cocomopl.pipeline.generate_walk`.
 
     Returns per step its duration, uncertainty and training support, the timings, the
     dynamics filter's error left, the upper-body correction, ``warnings``, and with
@@ -399,7 +402,7 @@ def generate_walk_file(
     model = model_path(model)
     dataset = dataset_path(dataset) if refine_steps else None
     out = output_file(out, "motion.h5", inputs=[model] + ([dataset] if dataset else []))
-    walk = generate_walk(lengths, model, dt, first_swing, strict)
+    walk = generate_walk(lengths, model, dt, first_swing, strict, landings, goal)
     motion, refined = walk.motion, None
     if refine_steps:
         refined_walk, refined = refine(motion, dataset, progress)
@@ -414,6 +417,8 @@ def generate_walk_file(
                "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
                "upper_body_limits": walk.motion.meta["upper_body_limits"],
                "out_of_support": [r["step"] for r in rows if not r["in_support"]], "warnings": walk.warnings}
+    if lengths is None:
+        payload["footsteps"] = walk.motion.meta["footsteps"]
     return payload | ({"refine": refined} if refined else {})
 
 

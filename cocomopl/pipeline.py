@@ -7,8 +7,10 @@ reproduce``) chain them into report folders, so scripts get what the command lin
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,10 +19,13 @@ import numpy as np
 from cocomopl.data import dataset_path as bundled_dataset_path
 from cocomopl.data import model_path as bundled_model_path
 from cocomopl.dataset.signals import signal_names
+from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, M_OPT, sequence_specs
 from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion
+from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs, wrap_angle
+from cocomopl.planning.goal import plan_to_goal
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model
 from cocomopl.provenance import stamp
@@ -60,26 +65,41 @@ def check_plan_dt(dt: float) -> float:
 
 
 def generate_walk(
-    lengths: list[float],
+    lengths: Sequence[float] | None = None,
     model_path: str | Path | None = None,
     dt: float | None = None,
     first_swing: str = "left",
     strict: bool = False,
+    landings: Sequence[Landing] | None = None,
+    goal: tuple[float, float, float] | None = None,
 ) -> GeneratedWalk:
-    """Generate and place a walk of step lengths ``lengths`` (m): start, ..., stop.
+    """Generate and place a walk: start, ..., stop.
+
+    The walk is one of: step ``lengths`` (m, straight ahead, ``first_swing`` first); the world
+    ``landings`` of a footstep plan (:mod:`cocomopl.planning.footsteps`); or a ``goal`` pose
+    (x, y in m, yaw in rad) of the feet's midpoint, planned within the model's learned
+    footstep range (:func:`~cocomopl.planning.goal.plan_to_goal`).
 
     ``model_path`` defaults to the bundled model and ``dt`` (s) to ``PLAN_DT``.  Steps
     outside the training support are warned about (``warnings``), or refused with
     ``strict``.  So is a walk that the dynamics filter could not make consistent (its ZMP
     more than ``FILTER_WARNING_M`` RMS from the learned one): most such walks fall.
     """
-    specs = sequence_specs(lengths, first_swing)  # an impossible walk is refused before loading
+    if sum(x is not None for x in (lengths, landings, goal)) != 1:
+        raise Error("a walk is given by exactly one of step lengths, footsteps or a goal")
+    if lengths is not None:
+        specs = sequence_specs(lengths, first_swing)  # an impossible walk is refused before loading
     model_path = bundled_model_path(model_path)
     model = load_model(model_path).prepare()
     robot = Robot(model.metadata_.get("robot", DEFAULT_ROBOT))
     if list(model.signal_names) != signal_names(robot):
         raise Error(f"{model_path}: its signals are not robot {robot.name}'s joints, ZMP and pelvis")
-    check_reach(robot, lengths)
+    if lengths is not None:
+        check_reach(robot, lengths)
+    elif landings is not None:
+        specs = walk_specs(robot, landings)
+    else:
+        specs = plan_to_goal(robot, goal, model.footstep_range())
     dt = PLAN_DT if dt is None else check_plan_dt(dt)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)
@@ -89,7 +109,11 @@ def generate_walk(
     started = time.perf_counter()
     motion = place_steps(robot, steps, dt)
     placement_s = time.perf_counter() - started
-    motion.meta.update({"model": Path(model_path).name, "lengths_mm": [1000 * x for x in lengths]})
+    motion.meta["model"] = Path(model_path).name
+    if lengths is not None:
+        motion.meta["lengths_mm"] = [1000 * x for x in lengths]
+    else:
+        motion.meta["footsteps"] = [landing.as_dict() for landing in landings_of(robot, specs)]
     messages = [str(w.message) for w in caught]
     error = motion.meta["plan_zmp_error_m"]
     if error > FILTER_WARNING_M:
@@ -192,7 +216,7 @@ def rollout_of(
 
 
 def walk_report(
-    lengths: list[float],
+    lengths: list[float] | None,
     out_dir: str | Path,
     model_path: str | Path | None = None,
     stabilizer: bool = True,
@@ -206,8 +230,14 @@ def walk_report(
     command: str | None = None,
     refine_steps: bool = False,
     dataset: str | Path | None = None,
+    landings: Sequence[Landing] | None = None,
+    goal: tuple[float, float, float] | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
+
+    The walk is given by step ``lengths``, footstep ``landings`` or a ``goal`` pose, as in
+    :func:`generate_walk`; with a goal the report adds how far the simulated robot's feet
+    ended from it (``final_position_error_m``, ``final_yaw_error_deg``).
 
     With ``refine_steps`` the generated walk is refined by the OCPs of ``dataset`` (default:
     the bundled one; :func:`refine`) and the refined walk is simulated; the summary is
@@ -229,7 +259,7 @@ def walk_report(
     # missing inputs are refused before anything is written
     provenance = walk_provenance(command, model_path, dataset=dataset)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path)] + ([dataset] if dataset else [])) as work:
-        walk = generate_walk(lengths, model_path, dt, first_swing, strict)
+        walk = generate_walk(lengths, model_path, dt, first_swing, strict, landings, goal)
         planned, refined = {"generated": walk.motion}, None
         if refine_steps:
             refined_walk, refined = refine(walk.motion, dataset, progress)
@@ -242,12 +272,13 @@ def walk_report(
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
         files += plot_comparison(walk.robot, motions, work)
-        title = f"cocomopl walk {','.join(f'{1000 * x:g}' for x in lengths)} mm"
+        title = f"cocomopl walk {walk_label(lengths, goal)}"
         files.append(write_html_viewer(walk.robot, rollout.measured, work / "walk.html", title=title))
         if video:
             files.append(work / "walk.mp4")
         payload = {
-            "lengths_mm": [1000 * x for x in lengths],
+            **({"lengths_mm": [1000 * x for x in lengths]} if lengths is not None else {"footsteps": walk.motion.meta["footsteps"]}),
+            **(goal_errors(walk.robot, rollout.measured, goal) if goal is not None else {}),
             "steps": [s.spec.name for s in walk.steps],
             "stabilizer": stabilizer,
             "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
@@ -265,6 +296,30 @@ def walk_report(
         payload["wall_time_s"] = time.perf_counter() - started
         write_json(work / "metrics.json", payload)
     return payload
+
+
+def walk_label(lengths: Sequence[float] | None, goal: tuple[float, float, float] | None) -> str:
+    """How a walk was asked for, in a line: its lengths, its goal, or footsteps."""
+    if lengths is not None:
+        return ",".join(f"{1000 * x:g}" for x in lengths) + " mm"
+    if goal is not None:
+        return f"to {goal[0]:g} m, {goal[1]:g} m, {math.degrees(goal[2]):g} deg"
+    return "on footsteps"
+
+
+def goal_errors(robot: Robot, motion: Motion, goal: tuple[float, float, float]) -> dict:
+    """The goal, and the distance (m) and heading error (deg) of the feet's midpoint at the
+    end of ``motion`` from it."""
+    soles = {}
+    for side in SIDES:
+        M = robot.frame_placement(motion.q[-1], robot.foot_frames[side])
+        soles[side] = np.array([M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0])])
+    end = midpoint(soles)
+    return {
+        "goal": {"x_m": goal[0], "y_m": goal[1], "yaw_deg": math.degrees(goal[2])},
+        "final_position_error_m": float(np.hypot(end[0] - goal[0], end[1] - goal[1])),
+        "final_yaw_error_deg": abs(math.degrees(wrap_angle(end[2] - goal[2]))),
+    }
 
 
 def _refuse_failing_dataset(robot, path, dataset: dict, attrs: dict) -> None:

@@ -14,6 +14,10 @@ transitions join consecutive footsteps as given and the extra pairs.
 
 from __future__ import annotations
 
+import itertools
+import math
+
+from cocomopl.errors import Error, parse_finite
 from cocomopl.motion import Footstep, StepSpec, as_footstep
 
 # The paper's lengths, 150, 250, 300, 350 and 400 mm, and 200 mm in their one 100 mm gap: the
@@ -22,6 +26,55 @@ DEFAULT_LENGTHS_M = (0.15, 0.20, 0.25, 0.30, 0.35, 0.40)
 # M_gen's two 100 mm changes: the paper trained 150 <-> 250 (neighbours on its lengths); with
 # 250 <-> 350 too, M_gen and the random walks stand better (README, "Training set")
 DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
+
+
+# The steady gaits of the omnidirectional set: every combination of a length (backward, in
+# place, forward), a width (none, side steps) and a turn.  Turns stop at 12 degrees: at 24,
+# six of the twelve gaits that would turn put the feet within 10 mm of each other.
+DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300/0,100/0,12"
+
+
+def gait_footsteps(robot, lengths, widths, turns) -> tuple[tuple[Footstep, ...], tuple[tuple[Footstep, Footstep], ...]]:
+    """Footsteps and transitions for the steady gaits (length, width, turn) of a grid, as the
+    footstep planner walks them (:mod:`cocomopl.planning.goal`): the leading foot steps
+    (length, width, turn), the trailing one (length, 0, -turn), and each gait's transitions
+    join the two.
+
+    Raises
+    ------
+    Error
+        Naming the first gait whose footsteps are out of range or collide
+        (:func:`~cocomopl.gait.check_footstep`).
+    """
+    from cocomopl.gait import check_footstep
+
+    footsteps, pairs = set(), set()
+    for length, width, turn in itertools.product(lengths, widths, turns):
+        lead, trail = Footstep(length, width, turn), Footstep(length, 0.0, -turn + 0.0)
+        for side, footstep in (("left", lead), ("right", trail)):
+            try:
+                check_footstep(robot, side, *footstep)
+            except Error as error:
+                raise Error(f"gait ({length * 1000:g} mm, {width * 1000:g} mm, {math.degrees(turn):g} deg): {error}") from None
+        footsteps |= {lead, trail}
+        if lead != trail:
+            pairs.add((lead, trail))
+    return tuple(sorted(footsteps)), tuple(sorted(pairs))
+
+
+def parse_gait_grid(text: str) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+    """A gait grid from ``"LENGTHS_MM/WIDTHS_MM/TURNS_DEG"``, each a comma list, e.g.
+    ``-150,0,150,300/0,100/0,12``, to metres and radians."""
+    parts = str(text).split("/")
+    if len(parts) != 3:
+        raise Error(f"gait grid {text!r} must be LENGTHS_MM/WIDTHS_MM/TURNS_DEG, e.g. -150,0,150,300/0,100/0,12")
+    out = []
+    for part, name, scale in zip(parts, ("length", "width", "turn"), (1e-3, 1e-3, math.radians(1))):
+        values = [parse_finite(item, f"gait {name}") * scale for item in part.split(",")]
+        if len(set(values)) != len(values):
+            raise Error(f"gait {name}s {part!r} repeat a value")
+        out.append(tuple(sorted(values)))
+    return tuple(out)
 
 
 def default_transitions(lengths: tuple[float, ...]) -> tuple[tuple[float, float], ...]:

@@ -24,6 +24,9 @@ from cocomopl.motion import StepSpec
 from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, TIME_KERNELS
 from cocomopl.primitives import durations as duration_gp
 from cocomopl.primitives.training import (
+    FOOTSTEP_PARAMETERS,
+    TURN_SCALE,
+    WIDTH_SCALE,
     TrainingSteps,
     learned_parts,
     phase_templates,
@@ -273,6 +276,18 @@ class MovementPrimitives:
     @property
     def types(self) -> list[str]:
         return [str(t) for t in self.state_["types"]]
+
+    def footstep_range(self) -> dict[str, tuple[float, float]]:
+        """(low, high) of the footsteps' ``length``, ``width`` (m) and ``turn`` (rad) that the
+        training steps landed at (their start steps' footsteps): the range a plan may use."""
+        self._check_fitted()
+        z = np.concatenate([self._type_arrays(t)["lengths"] for t in self.types if t.startswith("start_")])
+        columns = {"length": z[:, 1]}
+        if z.shape[1] == FOOTSTEP_PARAMETERS:
+            columns |= {"width": z[:, 3] / WIDTH_SCALE, "turn": z[:, 5] / TURN_SCALE}
+        else:
+            columns |= {"width": np.zeros(1), "turn": np.zeros(1)}
+        return {key: (float(v.min()), float(v.max())) for key, v in columns.items()}
 
     @property
     def signal_names(self) -> list[str]:
