@@ -219,3 +219,36 @@ def test_swing_heights_measure_the_planned_apex(robot, walk):
     apexes = swing_heights(robot, walk)
     assert len(apexes) == 3  # the start's swing and the stop's two
     assert np.allclose(apexes, KajitaSettings().swing_height, atol=2e-3)
+
+
+def test_a_turning_side_stepping_walk_puts_its_soles_and_zmp_on_the_turned_footsteps(robot):
+    """The baseline takes any footsteps: the soles land turned as planned, the pelvis faces
+    between them, and the ZMP reference sits on the turned stance sole's centre."""
+    import math
+
+    from cocomopl.gait import footsteps
+    from cocomopl.motion import Footstep
+
+    lead, trail = Footstep(0.15, 0.05, math.radians(12)), Footstep(0.15, 0.0, math.radians(-12))
+    specs = [StepSpec.between("start", Footstep(0.0), lead, "left"), StepSpec.between("transition", lead, trail, "right"),
+             StepSpec.between("stop", trail, Footstep(0.0), "left")]
+    walk = kajita_walk(robot, specs, dt=0.02)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, walk.q[-1])
+    end = footsteps(robot, specs)[-1]
+    for side in SIDES:
+        placement = data.oMf[robot.foot_frames[side]]
+        np.testing.assert_allclose(placement.translation[:2], end["end"][side][:2], atol=1e-3)
+        assert math.atan2(placement.rotation[1, 0], placement.rotation[0, 0]) == pytest.approx(end["yaw"]["end"][side], abs=1e-3)
+    pelvis = pin.Quaternion(walk.q[-1, 3:7]).matrix()
+    assert math.atan2(pelvis[1, 0], pelvis[0, 0]) == pytest.approx(end["yaw"]["end"]["left"], abs=1e-3)
+    phases = support_phases(robot, specs, default_durations(specs))
+    edges = np.concatenate([[0.0], np.cumsum([p.duration for p in phases])])
+    ahead = 0.5 * (robot.sole.front - robot.sole.back)
+    for p, phase in enumerate(phases):
+        if phase.kind == "ss":
+            j = 1 - SIDES.index(phase.swing)
+            yaw = phase.start_yaw[j]
+            centre = phase.start[j][:2] + ahead * np.array([math.cos(yaw), math.sin(yaw)])
+            zmp = zmp_reference(robot, phases, np.linspace(edges[p], edges[p + 1], 3))
+            np.testing.assert_allclose(zmp, np.tile(centre, (3, 1)), atol=1e-9)

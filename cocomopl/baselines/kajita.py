@@ -24,7 +24,8 @@ can be checked against its own claims.  ``LEGACY`` keeps the earlier single-stag
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -33,8 +34,8 @@ from scipy.interpolate import CubicHermiteSpline
 from cocomopl.baselines.preview_control import PreviewController
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements
 from cocomopl.errors import Error
-from cocomopl.gait import footsteps, ground_position, phase_plan
-from cocomopl.kinematics import leg_joints, place_legs
+from cocomopl.gait import footsteps, ground_position, ground_yaw, phase_plan
+from cocomopl.kinematics import flat_placement, leg_joints, place_legs
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, multibody_zmp, rms_zmp_error
@@ -104,9 +105,10 @@ class SupportPhase:
     kind : ``"ds"`` or ``"ss"``
     duration : s
     start, end : (2, 3) positions of the (left, right) sole frames at the phase's start and
-        end, world frame; soles are flat and face +x
+        end, world frame; soles are flat
     swing : the side in the air in single support, else None
     step : index of the step the phase belongs to
+    start_yaw, end_yaw : (2,) the soles' yaws (rad) at the phase's start and end
     """
 
     kind: str
@@ -115,6 +117,8 @@ class SupportPhase:
     end: np.ndarray
     swing: str | None
     step: int
+    start_yaw: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    end_yaw: np.ndarray = field(default_factory=lambda: np.zeros(2))
 
 
 def default_durations(
@@ -168,13 +172,15 @@ def support_phases(
                 np.array([ground_position(feet, plan, side, i) for side in SIDES])
                 for i in (p, p + 1)
             )
-            out.append(SupportPhase(kind, float(duration), start, end, swing, k))
+            start_yaw, end_yaw = (np.array([ground_yaw(feet, plan, side, i) for side in SIDES]) for i in (p, p + 1))
+            out.append(SupportPhase(kind, float(duration), start, end, swing, k, start_yaw, end_yaw))
     return out
 
 
-def _sole_centre(robot: Robot, position: np.ndarray) -> np.ndarray:
-    """Horizontal centre of a flat sole whose frame is at ``position``."""
-    return position[:2] + np.array([0.5 * (robot.sole.front - robot.sole.back), 0.0])
+def _sole_centre(robot: Robot, position: np.ndarray, yaw: float) -> np.ndarray:
+    """Horizontal centre of a flat sole whose frame is at ``position``, turned by ``yaw`` (rad)."""
+    ahead = 0.5 * (robot.sole.front - robot.sole.back)
+    return position[:2] + ahead * np.array([np.cos(yaw), np.sin(yaw)])
 
 
 def zmp_reference(
@@ -193,10 +199,8 @@ def zmp_reference(
     """
     edges = np.concatenate([[0.0, hold], np.cumsum([p.duration for p in phases])])
     edges[-1] -= settle
-    between = 0.5 * (
-        _sole_centre(robot, phases[0].start[0])
-        + _sole_centre(robot, phases[0].start[1])
-    )
+    first = phases[0]
+    between = 0.5 * (_sole_centre(robot, first.start[0], first.start_yaw[0]) + _sole_centre(robot, first.start[1], first.start_yaw[1]))
     knots = [between, between]
     for p, phase in enumerate(phases):
         carrier = (
@@ -205,16 +209,11 @@ def zmp_reference(
             else (phases[p + 1] if p + 1 < len(phases) else None)
         )
         if carrier is None:  # at the end, at rest between the feet
-            knots.append(
-                0.5
-                * (
-                    _sole_centre(robot, phase.end[0])
-                    + _sole_centre(robot, phase.end[1])
-                )
-            )
+            knots.append(0.5 * (_sole_centre(robot, phase.end[0], phase.end_yaw[0])
+                                + _sole_centre(robot, phase.end[1], phase.end_yaw[1])))
         else:
             stance = 1 - SIDES.index(carrier.swing)
-            knots.append(_sole_centre(robot, carrier.end[stance]))
+            knots.append(_sole_centre(robot, carrier.end[stance], carrier.end_yaw[stance]))
     knots = np.array(knots)
     return np.stack([np.interp(t, edges, knots[:, i]) for i in range(2)], axis=1)
 
@@ -235,6 +234,11 @@ def smoothed(reference: np.ndarray, dt: float, window: float) -> np.ndarray:
     return np.stack([np.convolve(padded[:, i], weights, mode="valid") for i in range(2)], axis=1)
 
 
+def minimum_jerk(s: float) -> float:
+    """The minimum-jerk blend from 0 to 1 over ``s`` in [0, 1], at rest at both ends."""
+    return s**3 * (10 - 15 * s + 6 * s**2)
+
+
 def swing_position(
     start: np.ndarray, end: np.ndarray, s: float, height: float
 ) -> np.ndarray:
@@ -243,10 +247,9 @@ def swing_position(
     The velocity vanishes at lift-off and touchdown; the lift ``16 s^2 (1-s)^2`` peaks at
     ``height`` at mid-swing.  It leaves and meets the ground with a finite vertical
     acceleration: a flatter bell (zero acceleration too) skims the floor so long that, in
-    simulation, the sole touches down early.
+    simulation, the sole touches down early.  The sole's yaw turns by the same blend.
     """
-    blend = s**3 * (10 - 15 * s + 6 * s**2)
-    out = start + blend * (end - start)
+    out = start + minimum_jerk(s) * (end - start)
     out[2] += height * 16 * s**2 * (1 - s) ** 2
     return out
 
@@ -270,20 +273,35 @@ def _sample_times(
     return np.concatenate(ts), np.concatenate(index)
 
 
+class Soles(NamedTuple):
+    """Targets of the (left, right) sole frames per sample: ``positions`` (n, 2, 3), m, and
+    ``yaws`` (n, 2), rad; the soles stay level."""
+
+    positions: np.ndarray
+    yaws: np.ndarray
+
+    def placement(self, k: int, j: int) -> pin.SE3:
+        return pin.SE3(flat_placement(0.0, 0.0, float(self.yaws[k, j])).rotation, self.positions[k, j])
+
+    def first(self) -> Soles:
+        return Soles(self.positions[:1], self.yaws[:1])
+
+
 def _sole_targets(
     phases: list[SupportPhase], t: np.ndarray, index: np.ndarray, height: float
-) -> np.ndarray:
-    """Target (n, 2, 3) of the (left, right) sole frames per sample."""
+) -> Soles:
+    """Targets of the (left, right) sole frames per sample."""
     edges = np.concatenate([[0.0], np.cumsum([p.duration for p in phases])])
-    out = np.empty((len(t), 2, 3))
+    out, yaws = np.empty((len(t), 2, 3)), np.empty((len(t), 2))
     for k, (time, p) in enumerate(zip(t, index)):
         phase = phases[p]
-        out[k] = phase.start
+        out[k], yaws[k] = phase.start, phase.start_yaw
         if phase.swing is not None:
             j = SIDES.index(phase.swing)
             s = np.clip((time - edges[p]) / phase.duration, 0.0, 1.0)
             out[k, j] = swing_position(phase.start[j], phase.end[j], s, height)
-    return out
+            yaws[k, j] += minimum_jerk(s) * (phase.end_yaw[j] - phase.start_yaw[j])
+    return Soles(out, yaws)
 
 
 def _preview_com(
@@ -335,19 +353,21 @@ def _whole_body(
     robot: Robot,
     q: np.ndarray,
     t: np.ndarray,
-    soles: np.ndarray,
+    soles: Soles,
     com: np.ndarray,
     iterations: int,
 ) -> np.ndarray:
-    """Configurations (n, nq) with the soles at ``soles`` (n, 2, 3) and the CoM above ``com`` (n, 2).
+    """Configurations (n, nq) with the soles at ``soles`` and the CoM above ``com`` (n, 2).
 
-    As Kajita's pattern generator: the pelvis keeps the orientation and height of ``q`` and
-    the upper body its posture; per sample the pelvis slides horizontally by the CoM error
-    and the legs follow the soles (:func:`~cocomopl.kinematics.place_legs`),
-    warm-started from the sample before.
+    As Kajita's pattern generator: the pelvis keeps the height and the roll and pitch of
+    ``q`` and the upper body its posture, and faces halfway between the soles' yaws; per
+    sample the pelvis slides horizontally by the CoM error and the legs follow the soles
+    (:func:`~cocomopl.kinematics.place_legs`), warm-started from the sample before.
     """
     model, data = robot.model, robot.model.createData()
     legs = leg_joints(robot)
+    roll, pitch, _ = pin.rpy.matrixToRpy(pin.Quaternion(q[3:7].copy()).matrix())
+    upright = pin.rpy.rpyToMatrix(roll, pitch, 0.0)
     out = np.empty((len(t), model.nq))
     for k in range(len(t)):
         if (
@@ -355,9 +375,9 @@ def _whole_body(
         ):  # a post-impact sample repeats the pre-impact configuration
             out[k] = out[k - 1]
             continue
-        targets = {
-            side: pin.SE3(np.eye(3), soles[k, j]) for j, side in enumerate(SIDES)
-        }
+        targets = {side: soles.placement(k, j) for j, side in enumerate(SIDES)}
+        heading = soles.yaws[k, 1] + 0.5 * np.angle(np.exp(1j * (soles.yaws[k, 0] - soles.yaws[k, 1])))
+        q[3:7] = pin.Quaternion(flat_placement(0.0, 0.0, heading).rotation @ upright).coeffs()
         for _ in range(iterations):
             q = place_legs(robot, q, targets, legs)
             q[:2] += com[k] - pin.centerOfMass(model, data, q)[:2]
@@ -387,7 +407,7 @@ def _first_stage(
     robot: Robot,
     phases: list[SupportPhase],
     t: np.ndarray,
-    soles: np.ndarray,
+    soles: Soles,
     drop: float,
     settings: KajitaSettings,
     settle: float,
@@ -402,7 +422,7 @@ def _first_stage(
     com_start = zmp_reference(robot, phases, t[:1])[0]
     crouched = robot.q_ref.copy()
     crouched[2] -= drop
-    standing = _whole_body(robot, crouched, t[:1], soles[:1], com_start[None], STANDING_ITERATIONS)[0]
+    standing = _whole_body(robot, crouched, t[:1], soles.first(), com_start[None], STANDING_ITERATIONS)[0]
     com_height = float(pin.centerOfMass(model, data, standing)[2])
     com, zmp_ref = _preview_com(robot, phases, t, com_height, settings, settle)
     return _whole_body(robot, standing, t, soles, com, settings.ik_iterations), zmp_ref, com_height
@@ -412,7 +432,7 @@ def highest_pelvis_drop(
     robot: Robot,
     phases: list[SupportPhase],
     t: np.ndarray,
-    soles: np.ndarray,
+    soles: Soles,
     settings: KajitaSettings,
     settle: float,
 ) -> tuple[float, tuple | None]:
@@ -430,16 +450,16 @@ def highest_pelvis_drop(
     while low - high > DROP_SEARCH_RESOLUTION:
         middle = 0.5 * (low + high)
         stage = _first_stage(robot, phases, t, soles, middle, settings, settle)
-        if _out_of_reach(robot, t, stage[0], soles) is None:
+        if _out_of_reach(robot, t, stage[0], soles.positions) is None:
             low, found = middle, stage
         else:
             high = middle
     return low, found
 
 
-def _ground(soles: np.ndarray, contact: np.ndarray) -> list[list[pin.SE3 | None]]:
+def _ground(soles: Soles, contact: np.ndarray) -> list[list[pin.SE3 | None]]:
     """Per sample and sole, the planned flat placement while in contact, None in the air."""
-    return [[pin.SE3(np.eye(3), soles[k, j]) if contact[k, j] else None for j in range(2)] for k in range(len(soles))]
+    return [[soles.placement(k, j) if contact[k, j] else None for j in range(2)] for k in range(len(contact))]
 
 
 def kajita_motion(
@@ -482,7 +502,7 @@ def kajita_motion(
     first_error = rms_zmp_error(multibody_zmp(robot, t, q, contact, impacts), zmp_ref, impacts)
     if settings.second_stage:
         q, _, _ = dynamics_filter(robot, t, q, contact, impacts, _ground(soles, contact), zmp_ref)
-    why = _out_of_reach(robot, t, q, soles)
+    why = _out_of_reach(robot, t, q, soles.positions)
     if why is not None:
         remedy = "shorten the steps" if settings.pelvis_drop is None else "lower it (KajitaSettings.pelvis_drop) or shorten the steps"
         raise Error(f"footsteps out of the legs' reach with the pelvis {100 * drop:.1f} cm low ({why}): {remedy}")
@@ -501,7 +521,7 @@ def kajita_motion(
         "com_height_m": com_height,
         "com_height_range_m": float(np.ptp(coms[:, 2])),
         "pelvis_height_m": float(q[0, 2]),
-        "sole_error_m": float(np.abs(sole_placements(robot, q) - soles).max()),
+        "sole_error_m": float(np.abs(sole_placements(robot, q) - soles.positions).max()),
         # the cart-table neglects angular momentum and the legs' swing: what stage 2 corrects
         "first_stage_zmp_reference_rms_m": first_error,
         "zmp_reference_rms_m": rms_zmp_error(motion.zmp, zmp_ref, impacts),

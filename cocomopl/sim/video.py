@@ -14,14 +14,21 @@ from tqdm import tqdm
 from cocomopl.motion_file import atomic_path
 from cocomopl.sim.mujoco_model import SimModel
 
+CAMERA_AZIMUTH_DEG = 120.0  # from the robot's left, a little ahead, when it faces +x
+CAMERA_TURN_FRAMES = 10
+
 
 def render_frames(sim: SimModel, qpos: np.ndarray, size: tuple[int, int] = (640, 480)) -> Iterator[np.ndarray]:
     """Yield an RGB image (height, width, 3) of each state of ``qpos`` (n, nq), seen from
-    the side by a camera that follows the pelvis; ``size`` is (width, height) in pixels."""
+    the side by a camera that follows the pelvis and turns with the walk's heading (the
+    pelvis yaw, smoothed over about ``CAMERA_TURN_FRAMES`` frames so the sway of each step
+    does not shake the view); ``size`` is (width, height) in pixels."""
     data = mujoco.MjData(sim.mj)
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-    camera.distance, camera.azimuth, camera.elevation = 3.2, 120.0, -15.0
+    camera.distance, camera.elevation = 3.2, -15.0
+    heading = _unwrapped_yaw(qpos)
+    heading = _smoothed(heading, CAMERA_TURN_FRAMES)
     with mujoco.Renderer(sim.mj, height=size[1], width=size[0]) as renderer:
         # shadows and reflections cost 3/4 of the time of a software-rendered frame
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
@@ -30,8 +37,23 @@ def render_frames(sim: SimModel, qpos: np.ndarray, size: tuple[int, int] = (640,
             data.qpos[:] = q
             mujoco.mj_kinematics(sim.mj, data)
             camera.lookat[:] = [data.qpos[0], data.qpos[1], 0.8]
+            camera.azimuth = CAMERA_AZIMUTH_DEG + np.degrees(next(heading))
             renderer.update_scene(data, camera)
             yield renderer.render()
+
+
+def _unwrapped_yaw(qpos: np.ndarray) -> np.ndarray:
+    """The free joint's yaw (rad) per state, continuous through +-pi."""
+    w, x, y, z = qpos[:, 3:7].T
+    return np.unwrap(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+
+
+def _smoothed(values: np.ndarray, frames: int) -> Iterator[float]:
+    """An exponential moving average of ``values`` with a time constant of ``frames``."""
+    state = float(values[0])
+    for value in values:
+        state += (float(value) - state) / frames
+        yield state
 
 
 def render_video(
