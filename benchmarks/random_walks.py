@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import math
 import multiprocessing as mp
 import sys
 import time
@@ -34,28 +35,46 @@ from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 
-def run_one(lengths_mm: list[float], contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
+def run_one(request: dict, contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
+    """One walk: ``request`` is ``{"lengths_mm": [...]}`` or ``{"goal": [x_m, y_m, yaw_deg]}``;
+    a goal's walk is also measured against the goal, and the Kajita baseline walks its
+    footsteps with the same timing (with the stabilizer)."""
     from cocomopl.analysis.feasibility import check_motion, tolerances, violations
     from cocomopl.ocp.settings import OCPSettings
-    from cocomopl.pipeline import generate_walk
+    from cocomopl.pipeline import generate_walk, goal_errors, kajita_for
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
-    walk = generate_walk([x / 1000 for x in lengths_mm], model)
+    goal = None
+    if "goal" in request:
+        x, y, yaw = request["goal"]
+        goal = (x, y, math.radians(yaw))
+        try:
+            walk = generate_walk(model_path=model, goal=goal)
+        except Error as exc:
+            return {**request, "unplanned": str(exc)}
+    else:
+        walk = generate_walk([x / 1000 for x in request["lengths_mm"]], model)
     sim = build_sim_model(walk.robot, visuals=False, contact_time_constant=contact_time_constant)
     # the plan against the checks of `cocomopl dataset check`, with the OC data's friction
     checks = check_motion(walk.robot, walk.motion, OCPSettings().friction)
-    out = {"lengths_mm": lengths_mm, "duration_s": walk.motion.duration, "plan_checks": checks,
+    out = {**request, "steps": len(walk.steps), "duration_s": walk.motion.duration, "plan_checks": checks,
            "plan_violations": violations(checks, tolerances(float(np.median(np.diff(walk.motion.t)))))}
-    for name, stabilizer in (("stabilizer", True), ("no_stabilizer", False)):
-        rollout = simulate(sim, walk.motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz)
-        weight = walk.robot.mass * 9.81
+    weight = walk.robot.mass * 9.81
+    runs = [("stabilizer", walk.motion, True), ("no_stabilizer", walk.motion, False)]
+    if goal is not None:
+        runs.append(("kajita", kajita_for(walk), True))
+    for name, motion, stabilizer in runs:
+        rollout = simulate(sim, motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz)
         out[name] = {
             "fell": rollout.fell,
             "fall_time_s": rollout.fall_time,
             "peak_force_over_weight": float(rollout.measured.wrenches[..., 2].max() / weight),
             "distance_m": float(rollout.measured.q[-1, 0] - rollout.measured.q[0, 0]),
         }
+        if goal is not None:
+            errors = goal_errors(walk.robot, rollout.measured, goal)
+            out[name] |= {k: errors[k] for k in ("final_position_error_m", "final_yaw_error_deg")}
     return out
 
 
@@ -68,11 +87,19 @@ def random_lengths(rng: np.random.Generator, max_change: float, n: int = 9) -> l
     return out + out[-1:]  # a stop repeats the length before it
 
 
+def random_goal(rng: np.random.Generator) -> list[float]:
+    """A goal pose [x_m, y_m, yaw_deg] within 1.5 m ahead, 0.6 m behind or aside and 90 deg."""
+    return [float(np.round(rng.uniform(-0.6, 1.5), 3)), float(np.round(rng.uniform(-0.6, 0.6), 3)),
+            float(np.round(rng.uniform(-90, 90), 1))]
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=50)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-change-mm", type=float, default=100.0)
+    parser.add_argument("--goals", action="store_true",
+                        help="omnidirectional walks instead: random goal poses, footsteps planned within the model's range")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--contact-time-constant-s", type=float, default=CONTACT_TIME_CONSTANT,
                         help="sole-floor contact softness in s (default: %(default)s)")
@@ -88,21 +115,32 @@ def main() -> int:
     except Error as exc:
         parser.error(str(exc))
     rng = np.random.default_rng(args.seed)
-    sequences = [random_lengths(rng, args.max_change_mm) for _ in range(args.n)]
+    if args.goals:
+        sequences = [{"goal": random_goal(rng)} for _ in range(args.n)]
+    else:
+        sequences = [{"lengths_mm": random_lengths(rng, args.max_change_mm)} for _ in range(args.n)]
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
         results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s, model=args.model,
                                                     reference_cutoff_hz=args.reference_cutoff_hz), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
+    unplanned = [r for r in results if "unplanned" in r]
+    results = [r for r in results if "unplanned" not in r]
     summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
+               "goals": args.goals, "unplanned": unplanned, "walks": len(results),
                "contact_time_constant_s": args.contact_time_constant_s, "reference_cutoff_hz": args.reference_cutoff_hz,
                "wall_time_s": time.perf_counter() - started}
-    for name in ("stabilizer", "no_stabilizer"):
+    runs = ("stabilizer", "no_stabilizer") + (("kajita",) if args.goals else ())
+    for name in runs:
         walked = [not r[name]["fell"] for r in results]
         summary[name] = {
             "walked": int(sum(walked)),
             "walked_fraction": float(np.mean(walked)),
             "peak_force_over_weight_median": float(np.median([r[name]["peak_force_over_weight"] for r in results])),
         }
+        if args.goals:
+            stood = [r[name] for r in results if not r[name]["fell"]]
+            summary[name] |= {f"{k}_max": float(max((s[k] for s in stood), default=float("nan")))
+                              for k in ("final_position_error_m", "final_yaw_error_deg")}
     summary["plans_within_all_checks"] = int(sum(not r["plan_violations"] for r in results))
     summary["plan_violations"] = {
         name: int(sum(name in r["plan_violations"] for r in results)) for name in sorted({v for r in results for v in r["plan_violations"]})
@@ -112,20 +150,26 @@ def main() -> int:
         for name, values in ((k, [r["plan_checks"][k] for r in results]) for k in results[0]["plan_checks"])
     }
     summary["plan_failures"] = [
-        {"lengths_mm": r["lengths_mm"], **{name: r["plan_checks"][name] for name in r["plan_violations"]}} for r in results if r["plan_violations"]
+        {k: r[k] for k in ("lengths_mm", "goal") if k in r} | {name: r["plan_checks"][name] for name in r["plan_violations"]}
+        for r in results if r["plan_violations"]
     ]
-    summary["falls"] = [r for r in results if r["stabilizer"]["fell"] or r["no_stabilizer"]["fell"]]
+    summary["falls"] = [r for r in results if any(r[name]["fell"] for name in runs)]
     if args.json:
         print(json.dumps(summary))
     else:
-        for name in ("stabilizer", "no_stabilizer"):
+        if unplanned:
+            print(f"{len(unplanned)} goals the planner could not reach within the model's range: "
+                  + "; ".join(str(r["goal"]) for r in unplanned))
+        for name in runs:
             s = summary[name]
-            print(f"{name:14s} walked {s['walked']}/{args.n} ({100 * s['walked_fraction']:.0f} %), "
-                  f"median peak force {s['peak_force_over_weight_median']:.2f} x weight")
+            print(f"{name:14s} walked {s['walked']}/{len(results)} ({100 * s['walked_fraction']:.0f} %), "
+                  f"median peak force {s['peak_force_over_weight_median']:.2f} x weight"
+                  + (f", ended within {100 * s['final_position_error_m_max']:.1f} cm and "
+                     f"{s['final_yaw_error_deg_max']:.1f} deg of the goal" if args.goals else ""))
         print(f"plans within all {len(summary['plan_worst'])} checks of `cocomopl dataset check`: "
-              f"{summary['plans_within_all_checks']}/{args.n}; failed: {summary['plan_violations'] or 'none'}")
+              f"{summary['plans_within_all_checks']}/{len(results)}; failed: {summary['plan_violations'] or 'none'}")
         for r in summary["falls"]:
-            print("fell:", r["lengths_mm"], {k: r[k]["fall_time_s"] for k in ("stabilizer", "no_stabilizer")})
+            print("fell:", r.get("lengths_mm", r.get("goal")), {k: r[k]["fall_time_s"] for k in runs})
         print(f"{summary['wall_time_s']:.0f} s")
     return 0
 

@@ -47,15 +47,15 @@ def double_support_posture(
     """
     if com_xy is None:
         com_xy = (0.5 * (left_xy[0] + right_xy[0]), 0.5 * (left_xy[1] + right_xy[1]))
+    q = robot.q_ref.copy()
+    q[0:2] = com_xy
     if yaws == (0.0, 0.0):
         feet = {side: np.array([xy[0], xy[1], 0.0]) for side, xy in (("left", left_xy), ("right", right_xy))}
     else:
         feet = {side: flat_placement(xy[0], xy[1], yaw) for side, xy, yaw in (("left", left_xy, yaws[0]),
                                                                               ("right", right_xy, yaws[1]))}
-    q = robot.q_ref.copy()
-    q[0:2] = com_xy
-    if yaws != (0.0, 0.0):  # start the base facing between the feet
-        q[3:7] = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, 0.5 * (yaws[0] + yaws[1]))).coeffs()
+        # start the base facing between the feet
+        q[3:7] = pin.Quaternion(flat_placement(0.0, 0.0, 0.5 * (yaws[0] + yaws[1])).rotation).coeffs()
     return inverse_kinematics(robot, feet, com_xy, q)
 
 

@@ -69,7 +69,7 @@ def turn_state(robot: Robot, x: np.ndarray, yaw: float) -> np.ndarray:
     out = np.array(x, dtype=float, copy=True)
     if yaw == 0.0:
         return out
-    rotation = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, yaw))
+    rotation = pin.Quaternion(flat_placement(0.0, 0.0, yaw).rotation)
     for row in out.reshape(-1, out.shape[-1]):
         row[:3] = rotation.matrix() @ row[:3]
         row[3:7] = (rotation * pin.Quaternion(row[3:7])).coeffs()
