@@ -438,7 +438,7 @@ def _solve_missing(
         if walk_guesses:
             record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses)
         else:
-            record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one)
+            record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one, note)
         cyclic = {s.start_footstep: m for s, m in done.items() if s.kind == "cyclic"}
         futures = {}
         for spec in specs:
@@ -460,7 +460,7 @@ SWEEPS = ("ascending", "descending")
 
 
 def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict,
-                           done: dict[StepSpec, Motion], collect) -> dict:
+                           done: dict[StepSpec, Motion], collect, note=lambda line: None) -> dict:
     """Solve the missing ``todo[L]`` kinds of each length (or footstep, by its
     :attr:`~cocomopl.motion.Footstep.gait_key`) by continuation, and pass each length's chosen
     result to ``collect``.
@@ -472,7 +472,8 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
     sweep whose OCPs converged more often, then the lower summed cost.  Footsteps are swept
     in the order of (length, width, turn).  Returns, per length (mm; a footstep's
     :attr:`~cocomopl.motion.Footstep.label`), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
-    and the sweep chosen.
+    and the sweep chosen.  ``note`` gets a line as each sweep finishes a length: a length's
+    OCPs are only collected once both sweeps have solved it, halfway through.
     """
     order = sorted(todo, key=as_footstep)
     if not order:
@@ -495,6 +496,7 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
         sweep, i = pending.pop(future)
         L = chains[sweep][i]
         results[L][sweep] = executor.result(future)
+        note(f"{sweep} sweep: {as_footstep(L).label} solved ({i + 1} of {len(order)})")
         if i + 1 < len(order):
             submit(sweep, i + 1, results[L][sweep].walk)
         if len(results[L]) == len(chains):
