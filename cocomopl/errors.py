@@ -1,5 +1,7 @@
 """The one exception type a user can cause."""
 
+import math
+
 
 class Error(Exception):
     """A problem with user input (a number, a file, an option).
@@ -20,6 +22,6 @@ def parse_finite(text: str, what: str) -> float:
         value = float(text)
     except ValueError:
         raise Error(f"{what} {text!r} is not a number in ASCII digits") from None
-    if value != value or value in (float("inf"), float("-inf")):
+    if not math.isfinite(value):
         raise Error(f"{what} {text!r} is not finite")
     return value

@@ -399,7 +399,7 @@ def generate_walk_file(
     from cocomopl.pipeline import generate_walk, refine, walk_provenance
     from cocomopl.synthesis.step_chain import joint_std_max
 
-    model = model_path(model)
+    model = model_path(model, omni=lengths is None)
     dataset = dataset_path(dataset) if refine_steps else None
     out = output_file(out, "motion.h5", inputs=[model] + ([dataset] if dataset else []))
     walk = generate_walk(lengths, model, dt, first_swing, strict, landings, goal)

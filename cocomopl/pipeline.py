@@ -80,7 +80,8 @@ def generate_walk(
     (x, y in m, yaw in rad) of the feet's midpoint, planned within the model's learned
     footstep range (:func:`~cocomopl.planning.goal.plan_to_goal`).
 
-    ``model_path`` defaults to the bundled model and ``dt`` (s) to ``PLAN_DT``.  Steps
+    ``model_path`` defaults to the bundled model (for footsteps and goals, the bundled
+    omnidirectional one) and ``dt`` (s) to ``PLAN_DT``.  Steps
     outside the training support are warned about (``warnings``), or refused with
     ``strict``.  So is a walk that the dynamics filter could not make consistent (its ZMP
     more than ``FILTER_WARNING_M`` RMS from the learned one): most such walks fall.
@@ -89,7 +90,7 @@ def generate_walk(
         raise Error("a walk is given by exactly one of step lengths, footsteps or a goal")
     if lengths is not None:
         specs = sequence_specs(lengths, first_swing)  # an impossible walk is refused before loading
-    model_path = bundled_model_path(model_path)
+    model_path = bundled_model_path(model_path, omni=lengths is None)
     model = load_model(model_path).prepare()
     robot = Robot(model.metadata_.get("robot", DEFAULT_ROBOT))
     if list(model.signal_names) != signal_names(robot):
@@ -161,10 +162,11 @@ def refine(motion: Motion, dataset_path: str | Path | None = None, progress: boo
     return refined, summary
 
 
-def walk_provenance(command: str | None, model_path: str | Path | None = None, **inputs) -> dict:
+def walk_provenance(command: str | None, model_path: str | Path | None = None, omni: bool = False, **inputs) -> dict:
     """The provenance of a file made from a generated walk: who made it, when, and the
-    model's (and any other input's) name and checksum."""
-    return stamp(command, ("mujoco", "pin"), model=bundled_model_path(model_path), **inputs)
+    model's (and any other input's) name and checksum; ``omni``: the model defaults to the
+    bundled omnidirectional one."""
+    return stamp(command, ("mujoco", "pin"), model=bundled_model_path(model_path, omni), **inputs)
 
 
 def simulate_walk(
@@ -257,8 +259,9 @@ def walk_report(
     started = time.perf_counter()
     dataset = bundled_dataset_path(dataset) if refine_steps else None
     # missing inputs are refused before anything is written
-    provenance = walk_provenance(command, model_path, dataset=dataset)
-    with report_folder(out_dir, inputs=[bundled_model_path(model_path)] + ([dataset] if dataset else [])) as work:
+    omni = lengths is None
+    provenance = walk_provenance(command, model_path, omni, dataset=dataset)
+    with report_folder(out_dir, inputs=[bundled_model_path(model_path, omni)] + ([dataset] if dataset else [])) as work:
         walk = generate_walk(lengths, model_path, dt, first_swing, strict, landings, goal)
         planned, refined = {"generated": walk.motion}, None
         if refine_steps:

@@ -96,7 +96,8 @@ def test_csv_velocities_and_torques_are_those_of_the_written_angles(robot, walk,
     t, angles, velocities = values[:, 0], block("_rad"), block("_rad_s")
     assert np.abs(velocities[1:-1] - (angles[2:] - angles[:-2]) / (t[2:] - t[:-2])[:, None]).max() < 1e-3
     # the written torques are the inverse dynamics the gate recomputes from the written angles
-    assert report["written_torque_ratio"]["value"] == pytest.approx(report["torque_ratio"]["value"], abs=1e-3)
+    # (to 0.5 %: the gate differentiates the written 5 ms grid, the torques are the knots' resampled)
+    assert report["written_torque_ratio"]["value"] == pytest.approx(report["torque_ratio"]["value"], rel=5e-3)
     # forces hold each kept knot's value until the next knot
     forces = values[:, [header.index(f"{s}_f{a}_N") for s in ("left", "right") for a in "xyz"]].reshape(-1, 2, 3)
     keep = walk.kept_samples()

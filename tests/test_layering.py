@@ -1,7 +1,7 @@
 """The package's layering rule (README, "Layout"), read from the import statements.
 
-The core (the Motion type, files, robot, walking vocabulary, kinematics, dynamics,
-analysis, bundled data) is used by every stage and imports none.  The stages come in
+The core (the Motion type, files, robot, walking vocabulary and footstep plans,
+kinematics, dynamics, analysis, bundled data) is used by every stage and imports none.  The stages come in
 pipeline order, and each imports the core and earlier stages only.  Nothing but
 ``__main__`` imports the command line.
 """
@@ -16,7 +16,7 @@ import cocomopl
 PACKAGE = Path(cocomopl.__file__).parent
 ROOT = PACKAGE.parent
 CORE = {"cocomopl", "errors", "motion", "motion_file", "validation", "provenance", "robot", "gait", "kinematics", "dynamics",
-        "analysis", "data"}
+        "analysis", "data", "planning"}
 STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "pipeline", "jobs", "cli",
           "__main__"]
 

@@ -146,7 +146,7 @@ def test_interrupted_save_keeps_old_file(model, saved, monkeypatch):
         file.write(b"PK\x03\x04 half an archive")
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(model_file.np, "savez", interrupted)
+    monkeypatch.setattr(model_file.np, "savez_compressed", interrupted)
     with pytest.raises(KeyboardInterrupt):
         save_model(saved, model, {})
     assert [p.name for p in saved.parent.iterdir()] == [saved.name]

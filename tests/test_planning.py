@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from cocomopl.data import BUNDLED_MODEL
 from cocomopl.errors import Error
 from cocomopl.gait import check_footstep, foot_separation, footstep_pose, sequence_specs
 from cocomopl.motion import Footstep
@@ -130,7 +131,7 @@ def test_footsteps_a_robot_cannot_take_are_refused_naming_the_landing(robot, row
 @pytest.mark.parametrize("args, words", [
     (("generate", "--footsteps", "missing.csv"), ["missing.csv", "no such footstep file"]),
     (("generate", "--footsteps", "plan.csv"), ["row 2", "not a number"]),
-    (("generate", "--to", "0,0.4,0"), ["straight steps"]),
+    (("generate", "--to", "0,0.4,0", "--model", str(BUNDLED_MODEL)), ["straight steps"]),
     (("generate", "--to", "1,0,0", "--lengths-mm", "200,200"), ["not allowed with"]),
     (("walk", "--to", "1,0"), ["three numbers"]),
 ])
@@ -145,7 +146,7 @@ def test_bad_footsteps_or_goals_on_the_command_line_are_one_line_and_write_nothi
 def test_generate_walks_a_footstep_file_and_reports_its_landings(tmp_path):
     landings = [Landing(0.2, 0.085, 0.0, "left"), Landing(0.4, -0.085, 0.0, "right")]
     write_landings(tmp_path / "plan.csv", landings)
-    result = run_cli("generate", "--footsteps", "plan.csv", "--json", cwd=tmp_path)
+    result = run_cli("generate", "--footsteps", "plan.csv", "--model", str(BUNDLED_MODEL), "--json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     import json
 

@@ -92,7 +92,7 @@ def training_specs(lengths: tuple, extra_transitions: tuple = ()) -> list[StepSp
     rest = Footstep(0.0)
     specs = [StepSpec.between("cyclic", f, f) for f in footsteps]
     specs += [StepSpec.between("start", rest, f) for f in footsteps]
-    pairs = list(zip(footsteps[:-1], footsteps[1:]))
+    pairs = list(itertools.pairwise(footsteps))
     pairs += [(as_footstep(a), as_footstep(b)) for a, b in extra_transitions]
     for a, b in sorted(set(pairs)):
         specs += [StepSpec.between("transition", a, b), StepSpec.between("transition", b, a)]
