@@ -6,14 +6,20 @@ the bundled omnidirectional model: generation (the primitives alone, caches buil
 
     python benchmarks/omni_speed.py
 """
-import math, time, warnings, numpy as np
+import math
+import time
+import warnings
+
+import numpy as np
+
 from cocomopl.data import BUNDLED_MODEL, BUNDLED_OMNI_MODEL
+from cocomopl.gait import M_GEN, sequence_specs
+from cocomopl.planning.goal import plan_to_goal
 from cocomopl.primitives.model_file import load_model
 from cocomopl.robot import Robot
-from cocomopl.gait import sequence_specs, M_GEN
-from cocomopl.planning.goal import plan_to_goal
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import place_steps
+
 warnings.simplefilter("ignore")
 robot = Robot("talos")
 for label, path, specs_of in (("straight M_gen", BUNDLED_MODEL, lambda m: sequence_specs(list(M_GEN))),
