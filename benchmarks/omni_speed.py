@@ -24,6 +24,7 @@ from cocomopl.robot import Robot
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import place_steps
 
+
 def measure(robot: Robot, path, specs_of) -> dict:
     model = load_model(path).prepare()
     specs = specs_of(model)
