@@ -408,6 +408,7 @@ def cmd_walk(args) -> int:
     out = Path(args.out)
     _note_replacing(out, inputs=[args.model], folder=True)
     request = _walk_request(args)
+    label = walk_label(request.get("lengths"), request.get("goal"))
     payload = walk_report(request.pop("lengths"), out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
                           progress=not args.json, contact_time_constant=args.contact_time_constant_s,
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
@@ -415,7 +416,7 @@ def cmd_walk(args) -> int:
                           **request)
     for message in payload["warnings"]:
         _warn(message)
-    lines = [f"walk {walk_label(args.lengths_mm if 'lengths_mm' in payload else None, args.to)}: "
+    lines = [f"walk {label}: "
              f"{len(payload['steps'])} steps, generated in {payload['generation_s'] * 1e3:.2f} ms, "
              + ("refined by optimal control, " if args.refine else "")
              + f"simulated in MuJoCo ({'with' if payload['stabilizer'] else 'without'} stabilizer)",

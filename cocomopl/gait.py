@@ -84,13 +84,29 @@ def check_footstep(robot: Robot, side: str, length: float, width: float, turn: f
         )
 
 
+def initial_soles(robot: Robot) -> dict[str, np.ndarray]:
+    """The soles' poses (x, y, yaw) before a walk: side by side at the origin, facing +x."""
+    half = foot_separation(robot) / 2
+    return {"left": np.array([0.0, half, 0.0]), "right": np.array([0.0, -half, 0.0])}
+
+
+def wrap_angle(angle: float) -> float:
+    """``angle`` (rad) in [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def mean_yaw(left: float, right: float) -> float:
+    """The heading (rad) halfway between two soles' yaws, the short way round."""
+    return right + 0.5 * wrap_angle(left - right)
+
+
 def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
     """Where each sole stands at each step's start and end, world frame (x forward, z up):
     ``"start"`` and ``"end"`` positions (3,) by side, and under ``"yaw"`` the soles' yaws
     (rad) at the ``"start"`` and ``"end"``.  The walk starts with the soles side by side,
     facing +x, the right one at y = -separation/2."""
     separation = foot_separation(robot)
-    poses = {"left": np.array([0.0, separation / 2, 0.0]), "right": np.array([0.0, -separation / 2, 0.0])}
+    poses = initial_soles(robot)
     out = []
     for spec in specs:
         start = {k: v.copy() for k, v in poses.items()}

@@ -21,10 +21,10 @@ from cocomopl.data import model_path as bundled_model_path
 from cocomopl.dataset.signals import signal_names
 from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
-from cocomopl.gait import M_GEN, M_OPT, sequence_specs
+from cocomopl.gait import M_GEN, M_OPT, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion
-from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs, wrap_angle
+from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
 from cocomopl.planning.goal import plan_to_goal
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model

@@ -34,7 +34,7 @@ from scipy.interpolate import CubicHermiteSpline
 from cocomopl.baselines.preview_control import PreviewController
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements
 from cocomopl.errors import Error
-from cocomopl.gait import footsteps, ground_position, ground_yaw, phase_plan
+from cocomopl.gait import footsteps, ground_position, ground_yaw, mean_yaw, phase_plan
 from cocomopl.kinematics import flat_placement, leg_joints, place_legs
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
@@ -376,7 +376,7 @@ def _whole_body(
             out[k] = out[k - 1]
             continue
         targets = {side: soles.placement(k, j) for j, side in enumerate(SIDES)}
-        heading = soles.yaws[k, 1] + 0.5 * np.angle(np.exp(1j * (soles.yaws[k, 0] - soles.yaws[k, 1])))
+        heading = mean_yaw(soles.yaws[k, 0], soles.yaws[k, 1])
         q[3:7] = pin.Quaternion(flat_placement(0.0, 0.0, heading).rotation @ upright).coeffs()
         for _ in range(iterations):
             q = place_legs(robot, q, targets, legs)

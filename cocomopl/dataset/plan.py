@@ -18,7 +18,9 @@ import itertools
 import math
 
 from cocomopl.errors import Error, parse_finite
+from cocomopl.gait import check_footstep
 from cocomopl.motion import Footstep, StepSpec, as_footstep
+from cocomopl.planning.goal import steady_gait
 
 # The paper's lengths, 150, 250, 300, 350 and 400 mm, and 200 mm in their one 100 mm gap: the
 # primitives interpolate badly across it (README, "Training set").
@@ -46,11 +48,9 @@ def gait_footsteps(robot, lengths, widths, turns) -> tuple[tuple[Footstep, ...],
         Naming the first gait whose footsteps are out of range or collide
         (:func:`~cocomopl.gait.check_footstep`).
     """
-    from cocomopl.gait import check_footstep
-
     footsteps, pairs = set(), set()
     for length, width, turn in itertools.product(lengths, widths, turns):
-        lead, trail = Footstep(length, width, turn), Footstep(length, 0.0, -turn + 0.0)
+        lead, trail = steady_gait(length, width, turn)
         for side, footstep in (("left", lead), ("right", trail)):
             try:
                 check_footstep(robot, side, *footstep)

@@ -22,7 +22,15 @@ from typing import NamedTuple
 import numpy as np
 
 from cocomopl.errors import Error, parse_finite
-from cocomopl.gait import OTHER_SIDE, check_footstep, foot_separation
+from cocomopl.gait import (
+    OTHER_SIDE,
+    check_footstep,
+    foot_separation,
+    footsteps,
+    initial_soles,
+    mean_yaw,
+    wrap_angle,
+)
 from cocomopl.motion import Footstep, StepSpec
 from cocomopl.robot import Robot
 
@@ -43,17 +51,6 @@ class Landing(NamedTuple):
 
     def as_dict(self) -> dict:
         return {"x_m": self.x, "y_m": self.y, "yaw_deg": math.degrees(self.yaw), "side": self.side}
-
-
-def initial_soles(robot: Robot) -> dict[str, np.ndarray]:
-    """The soles' poses (x, y, yaw) before a walk: side by side at the origin, facing +x."""
-    half = foot_separation(robot) / 2
-    return {"left": np.array([0.0, half, 0.0]), "right": np.array([0.0, -half, 0.0])}
-
-
-def wrap_angle(angle: float) -> float:
-    """``angle`` (rad) in [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def relative_footstep(robot: Robot, other: np.ndarray, landed: np.ndarray, side: str) -> Footstep:
@@ -171,8 +168,6 @@ def write_landings(path: str | Path, landings: Sequence[Landing]) -> None:
 
 def soles_after(robot: Robot, specs: Sequence[StepSpec]) -> dict[str, np.ndarray]:
     """The soles' poses (x, y, yaw) at the end of the walk ``specs``."""
-    from cocomopl.gait import footsteps
-
     end = footsteps(robot, list(specs))[-1]
     return {side: np.array([*end["end"][side][:2], end["yaw"]["end"][side]]) for side in OTHER_SIDE}
 
@@ -180,14 +175,11 @@ def soles_after(robot: Robot, specs: Sequence[StepSpec]) -> dict[str, np.ndarray
 def midpoint(soles: dict[str, np.ndarray]) -> np.ndarray:
     """The feet's midpoint and mean heading (x, y, yaw) of two sole poses."""
     left, right = soles["left"], soles["right"]
-    yaw = right[2] + 0.5 * wrap_angle(left[2] - right[2])
-    return np.array([(left[0] + right[0]) / 2, (left[1] + right[1]) / 2, wrap_angle(yaw)])
+    return np.array([(left[0] + right[0]) / 2, (left[1] + right[1]) / 2, wrap_angle(mean_yaw(left[2], right[2]))])
 
 
 def landings_of(robot: Robot, specs: Sequence[StepSpec]) -> list[Landing]:
     """The world landings that walk ``specs`` makes, its stop's closing step left out."""
-    from cocomopl.gait import footsteps
-
     out = []
     for spec, feet in zip(specs, footsteps(robot, list(specs))):
         side = spec.swing_side

@@ -22,9 +22,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from cocomopl.errors import Error, parse_finite
-from cocomopl.gait import FOOTSTEP_RANGE, OTHER_SIDE, check_footstep
+from cocomopl.gait import FOOTSTEP_RANGE, OTHER_SIDE, check_footstep, wrap_angle
 from cocomopl.motion import Footstep, StepSpec
-from cocomopl.planning.footsteps import footstep_specs, midpoint, soles_after, wrap_angle
+from cocomopl.planning.footsteps import footstep_specs, midpoint, soles_after
 from cocomopl.robot import Robot
 
 MAX_LANDINGS = 40
@@ -33,11 +33,16 @@ YAW_TOLERANCE_RAD = math.radians(0.1)
 YAW_WEIGHT_M = 0.3  # m per rad in the least squares: a sole's length
 
 
+def steady_gait(length: float, lateral: float, turn: float) -> tuple[Footstep, Footstep]:
+    """The leading and the trailing foot's footsteps of the steady gait that advances
+    ``length`` m and turns ``turn`` rad a step and moves ``lateral`` m sideways a pair."""
+    return Footstep(length, max(lateral, 0.0), turn), Footstep(length, max(-lateral, 0.0), -turn + 0.0)
+
+
 def gait_specs(n: int, lead: str, length: float, lateral: float, turn: float) -> list[StepSpec]:
     """The steps of ``n`` landings of the gait (``length`` m, ``lateral`` m per pair, ``turn``
     rad per step), ``lead`` foot first."""
-    leading = Footstep(length, max(lateral, 0.0), turn)
-    trailing = Footstep(length, max(-lateral, 0.0), -turn)
+    leading, trailing = steady_gait(length, lateral, turn)
     return footstep_specs([leading if k % 2 == 0 else trailing for k in range(n - 1)], lead)
 
 

@@ -2,9 +2,9 @@
 
 Each step's signals are resampled from its normalised grid to real time (cubic splines, so
 velocities and accelerations exist).  Footsteps follow from the step lengths (and widths
-and turns); the pelvis takes the learned orientation, turned with the stance sole, and its position comes by forward kinematics from the feet
-on the ground: from the stance foot in single support, blended from the old to the new
-stance foot over double support.  Torques and contact wrenches come from Pinocchio inverse
+and turns); the pelvis takes the learned orientation, turned with the stance sole, and its
+position comes by forward kinematics from the feet on the ground: from the stance foot in
+single support, blended from the old to the new stance foot over double support.  Torques and contact wrenches come from Pinocchio inverse
 dynamics of the resulting motion, so every analysis tool can read it like an OC motion.
 """
 
