@@ -10,7 +10,12 @@ with the checks of ``cocomopl dataset check`` (inverse dynamics, ZMP margin, fri
 issue #3, point 6), and simulated with the stabilizer on, and with it off.  Goal (issue #4):
 at least 95 % walk without falling.
 
-    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--workers 2]
+With ``--goals``, each walk goes to a random goal pose instead (within 1.5 m ahead, 0.6 m
+behind or aside and 90 degrees, :func:`random_goal`): its footsteps are planned within the
+bundled omnidirectional model's range (``cocomopl walk --to``), and it is also measured
+against the goal and walked by the Kajita baseline on the same footsteps and timing.
+
+    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals] [--workers 2]
         [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
 """
 
@@ -28,7 +33,7 @@ import numpy as np
 from tqdm import tqdm
 
 from cocomopl.analysis.feasibility import AT_LEAST
-from cocomopl.data import BUNDLED_MODEL
+from cocomopl.data import BUNDLED_MODEL, BUNDLED_OMNI_MODEL
 from cocomopl.errors import Error
 from cocomopl.primitives.model_file import load_model
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant
@@ -105,9 +110,10 @@ def main() -> int:
                         help="sole-floor contact softness in s (default: %(default)s)")
     parser.add_argument("--reference-cutoff-hz", type=float, default=REFERENCE_CUTOFF_HZ,
                         help="low-pass of the reference joints in Hz, 0 for none (default: %(default)s)")
-    parser.add_argument("--model", default=str(BUNDLED_MODEL), help="primitives model file (default: the bundled one)")
+    parser.add_argument("--model", help="primitives model file (default: the bundled one, the omnidirectional one with --goals)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    args.model = args.model or str(BUNDLED_OMNI_MODEL if args.goals else BUNDLED_MODEL)
     try:
         check_contact_time_constant(args.contact_time_constant_s)
         check_reference_cutoff(args.reference_cutoff_hz)
@@ -125,6 +131,8 @@ def main() -> int:
                                                     reference_cutoff_hz=args.reference_cutoff_hz), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
     unplanned = [r for r in results if "unplanned" in r]
     results = [r for r in results if "unplanned" not in r]
+    if not results:
+        parser.error(f"no walk could be planned: {unplanned[0]['unplanned']}")
     summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
                "goals": args.goals, "unplanned": unplanned, "walks": len(results),
                "contact_time_constant_s": args.contact_time_constant_s, "reference_cutoff_hz": args.reference_cutoff_hz,

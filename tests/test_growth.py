@@ -7,7 +7,7 @@ import pytest
 from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
-from cocomopl.primitives.estimator import SAME_LENGTHS_M2
+from cocomopl.primitives.estimator import SAME_LENGTHS_M2, _weight_posterior
 from cocomopl.primitives.growth import (
     candidate_lengths,
     check_budget,
@@ -29,12 +29,15 @@ def model():
     return load_model(BUNDLED_MODEL).prepare()
 
 
-def model_weight_variance(model, type_, z):
-    """The weight variance the model's own prediction computes (before its floor)."""
-    c = model._type_arrays(type_)
+def direct_weight_variance(model, type_, z):
+    """The weight GPs' posterior variance (before the floor), directly from the solves ``C``
+    the model file stores: ``alpha - b^T C b``."""
+    c, g = model._type_arrays(type_), model.types.index(type_)
+    n = len(c["lengths"])
+    C = model.state_["C"][:, :, g, :n, :n].reshape(-1, n, n)
     d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
-    b = c["alpha_w"] * np.exp(np.multiply.outer(d2, c["minus_gamma_w"])) + np.multiply.outer(d2 < SAME_LENGTHS_M2, c["nugget"])
-    return np.maximum(c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0), 0.0)
+    b = c["alpha_w"][:, None] * np.exp(-np.multiply.outer(c["gamma_w"], d2)) + np.multiply.outer(c["nugget"], d2 < SAME_LENGTHS_M2)
+    return np.maximum(c["alpha_w"] - np.einsum("kn,knm,km->k", b, C, b), 0.0)
 
 
 @pytest.mark.parametrize("spec", [StepSpec("cyclic", 0.175, 0.175), StepSpec("start", 0.0, 0.33),
@@ -45,7 +48,20 @@ def test_with_nothing_added_the_variance_is_the_models_own(model, spec):
     prior = model._type_arrays(type_)["alpha_w"]
     ours = weight_variance(model, type_, np.zeros((0, 2)), z).ravel()
     # as fractions of the prior: the variance left is a difference of nearly equal numbers
-    np.testing.assert_allclose(ours / prior, model_weight_variance(model, type_, z) / prior, atol=1e-6)
+    np.testing.assert_allclose(ours / prior, direct_weight_variance(model, type_, z) / prior, atol=1e-6)
+
+
+@pytest.mark.parametrize("spec", [StepSpec("cyclic", 0.175, 0.175), StepSpec("transition", 0.25, 0.3),
+                                  StepSpec("stop", 0.4, 0.0)])
+def test_the_predictions_eigenbasis_variance_is_the_direct_solves(model, spec):
+    """Prediction takes ``b^T C b`` in an eigenbasis (``estimator._weight_solves``), at a new
+    step and at a trained one, where the nugget counts."""
+    type_ = model._trajectory_types(f"{spec.kind}_left")[0]
+    c = model._type_arrays(type_)
+    z = step_lengths(spec, c["lengths"].shape[1])
+    _, (variance,) = _weight_posterior(c, ((c["lengths"] - z) ** 2).sum(axis=1)[None])
+    prior = c["alpha_w"]
+    np.testing.assert_allclose(np.maximum(variance, 0.0) / prior, direct_weight_variance(model, type_, z) / prior, atol=1e-8)
 
 
 def test_adding_a_length_leaves_no_variance_more_anywhere_and_least_there(model):

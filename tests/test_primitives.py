@@ -120,7 +120,7 @@ def test_fit_reports_bound_and_explained_variance(model, steps):
 
     parts, types = learned_parts(steps)
     X = resample(parts, phase_templates(parts, types), model.state_["tau"], types)
-    X_hat = np.stack([model._predict_trajectory(t, spec, None).values.T for t, spec in zip(types, parts.specs)])
+    X_hat = np.stack([model._predict_type(t, [spec])[0].values.T for t, spec in zip(types, parts.specs)])
     for group, value in explained_variance(X, X_hat, steps.signal_names).items():
         assert value == pytest.approx(model.explained_variance_[group], abs=1e-3)
     # whole steps, each stop's second part conditioned on its first, score a little lower
@@ -218,7 +218,8 @@ def test_the_predicted_std_is_the_spread_of_sampled_signals(model):
     specs = sequence_specs(list(M_GEN))
     free = model.predict(specs[1])
     chained = model.predict(specs[1], start=model.predict(specs[0]).values[-1])
-    (w, var, m, m_var, _), = free._std_terms
+    (part,), (m, m_var) = free._parts, free._primitives
+    w, var = part.weights, part.weight_var
     c0 = model.state_["m_cov_start"]
     rng = np.random.default_rng(0)
     n, t = 20000, np.array([1, 2, 5, 15, 29])

@@ -32,6 +32,10 @@ TOLERANCES = {
     "continuity": 5e-3,  # max state mismatch between consecutive steps (<=)
 }
 AT_LEAST = {"zmp_margin", "min_normal_force"}
+# N: a contact force no larger than this is zero.  Where a sole unloads before it lifts,
+# the solvers' penalised wrench cone leaves forces of a few mN of either sign, which
+# would otherwise count as pulling and, divided by a zero normal force, as slipping
+FORCE_RESOLUTION = 1e-2  # 1e-5 of TALOS's weight
 
 
 def support_polygon(robot: Robot, q: np.ndarray, contact: np.ndarray) -> np.ndarray:
@@ -84,6 +88,7 @@ def check_motion(robot: Robot, motion: Motion, friction: float) -> dict:
     soles = sole_placements(robot, motion.q)
     forces = motion.wrenches[intervals][..., :3]
     in_contact = motion.contact[intervals]
+    forces = np.where(np.linalg.norm(forces, axis=-1, keepdims=True) <= FORCE_RESOLUTION, 0.0, forces)
     fn = forces[..., 2][in_contact]
     ft = np.linalg.norm(forces[..., :2], axis=-1)[in_contact]
     slip = 0.0

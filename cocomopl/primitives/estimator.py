@@ -13,6 +13,7 @@ arrays the weight GPs need, so that a step costs a handful of small matrix produ
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 import inspect
 import time
 
@@ -75,6 +76,21 @@ def pca_signal_weights(X: np.ndarray, names: list[str]) -> np.ndarray:
     return weights
 
 
+@dataclass(frozen=True)
+class _Part:
+    """One learned trajectory of a predicted step (a step, or a part of one), unconditioned:
+    the signals' mean (T, I), the weights' posterior mean and variance (I, S), and what
+    conditioning on the part's start takes (:func:`_condition`): ``gain``, ``cross`` (T, I)
+    and ``observed`` (I,)."""
+
+    mean: np.ndarray
+    weights: np.ndarray
+    weight_var: np.ndarray
+    gain: np.ndarray
+    cross: np.ndarray
+    observed: np.ndarray
+
+
 class PredictedStep:
     """A step predicted by the model: signals on the template grid, durations and uncertainty.
 
@@ -89,23 +105,45 @@ class PredictedStep:
     distance : distance of the step parameters (:func:`~cocomopl.primitives.training.step_lengths`)
         to the nearest training step of the type, m
     in_support : whether that distance is within the training grid's spacing
+    start : (I,) the signals the step's start was conditioned on (None: not conditioned)
     """
 
-    def __init__(self, spec, tau, values, std_terms, boundaries, durations, duration_std, distance, in_support):
+    def __init__(self, spec, tau, parts, primitives, boundaries, durations, duration_std, distance, in_support,
+                 start=None):
         self.spec = spec
         self.tau = tau
-        self.values = values
-        self._std_terms = std_terms  # per part: (weights, weight_var, primitives, primitive_var, reduction)
+        self._parts = parts
+        self._primitives = primitives  # the primitives' means and variances, (S, T) each
         self.boundaries = boundaries
         self.durations = durations
         self.duration_std = duration_std
         self.distance = distance
         self.in_support = in_support
+        self.start = start
+        self.values = np.concatenate(self._chained_means())
+
+    def _chained_means(self) -> list[np.ndarray]:
+        """Each part's mean, conditioned on the step's start (the first part) or on the end
+        of the part before it (the others: each part starts where the one before ended, as
+        steps do)."""
+        out, start = [], self.start
+        for part in self._parts:
+            out.append(part.mean if start is None else part.mean + part.gain * (start - part.mean[0]))
+            start = out[-1][-1]
+        return out
+
+    def conditioned_on(self, start: np.ndarray) -> PredictedStep:
+        """This step with its start conditioned on the signals ``start`` (I), the previous
+        step's end: the initial joint angles and pelvis orientation then (nearly) equal them.
+        The ZMP is not conditioned: it jumps at touchdown, in the OC data too."""
+        return PredictedStep(self.spec, self.tau, self._parts, self._primitives, self.boundaries, self.durations,
+                             self.duration_std, self.distance, self.in_support, np.asarray(start, dtype=float))
 
     @property
     def std(self) -> np.ndarray:
         """Posterior standard deviation of the signals, (T, I); computed on demand."""
-        return np.concatenate([_signal_std(*terms) for terms in self._std_terms])
+        return np.concatenate([_signal_std(part, *self._primitives, conditioned=k > 0 or self.start is not None)
+                               for k, part in enumerate(self._parts)])
 
     @property
     def phase_edges(self) -> np.ndarray:
@@ -122,8 +160,8 @@ class PredictedStep:
 
     @classmethod
     def joined(cls, spec, parts: list[PredictedStep]) -> PredictedStep:
-        """One step from its consecutive parts: each part's grid takes the share of the
-        step's normalised time that its predicted duration takes of the whole."""
+        """One step from its consecutive parts (unconditioned): each part's grid takes the
+        share of the step's normalised time that its predicted duration takes of the whole."""
         shares = np.array([p.duration for p in parts]) / sum(p.duration for p in parts)
         starts = np.concatenate([[0.0], np.cumsum(shares)])
         tau = np.concatenate([a + w * p.tau for a, w, p in zip(starts, shares, parts)])
@@ -131,8 +169,8 @@ class PredictedStep:
         return cls(
             spec,
             tau,
-            np.concatenate([p.values for p in parts]),
-            [t for p in parts for t in p._std_terms],
+            [part for p in parts for part in p._parts],
+            parts[0]._primitives,
             boundaries,
             np.concatenate([p.durations for p in parts]),
             np.concatenate([p.duration_std for p in parts]),
@@ -141,13 +179,17 @@ class PredictedStep:
         )
 
 
-def _signal_std(weights, weight_var, primitives, primitive_var, reduction) -> np.ndarray:
+def _signal_std(part: _Part, primitives: np.ndarray, primitive_var: np.ndarray, conditioned: bool) -> np.ndarray:
     """Standard deviation (T, I) of ``x_i(t) = w_i @ MP(t)`` for independent weights
-    ``W_is ~ N(weights, weight_var)`` (I, S) and primitives ``MP_s(t) ~ N(primitives,
-    primitive_var)`` (S, T), ``sum_s P_is m_s(t)^2 + (w_is^2 + P_is) v_s(t)``, less the
-    variance ``reduction`` (T, I) that conditioning on the step's start removed (:func:`_condition`)."""
-    variance = weight_var @ primitives**2 + (weights**2 + weight_var) @ primitive_var
-    return np.sqrt(np.maximum(variance.T - reduction, 0.0))
+    ``W_is ~ N(w_is, P_is)`` (I, S) and primitives ``MP_s(t) ~ N(m_s(t), v_s(t))`` (S, T),
+    ``sum_s P_is m_s(t)^2 + (w_is^2 + P_is) v_s(t)``, less, if the part's start was
+    ``conditioned``, the variance that conditioning removed: ``2 g Cov - g^2 Var(x_i(0))``
+    (:func:`_condition`)."""
+    w, var = part.weights, part.weight_var
+    variance = (var @ primitives**2 + (w**2 + var) @ primitive_var).T
+    if conditioned:
+        variance -= np.maximum(2.0 * part.gain * part.cross - part.gain**2 * part.observed, 0.0)
+    return np.sqrt(np.maximum(variance, 0.0))
 
 
 class MovementPrimitives:
@@ -250,14 +292,14 @@ class MovementPrimitives:
             **result["arrays"],
             **_fit_durations(parts, layout),
         }
-        for cache in ("_cache", "_trajectories"):  # per-type lookups of a previous fit
+        for cache in ("_cache", "_trajectories", "_moments", "_signal_names"):  # per-type lookups of a previous fit
             self.__dict__.pop(cache, None)
         self.bound_ = result["bound"]
         self.n_iter_ = result["iterations"]
         self.fit_time_s_ = time.perf_counter() - started
         # of the learned trajectories (every step, the stops in their two parts) as the model
         # predicts them from their specs: the weight GPs' nuggets smooth across the steps
-        X_hat = np.stack([self._predict_trajectory(t, spec, None).values.T for t, spec in zip(types, parts.specs)])
+        X_hat = np.stack([self._predict_type(t, [spec])[0].values.T for t, spec in zip(types, parts.specs)])
         self.explained_variance_ = explained_variance(X, X_hat, steps.signal_names)
         return self
 
@@ -291,7 +333,9 @@ class MovementPrimitives:
 
     @property
     def signal_names(self) -> list[str]:
-        return [str(n) for n in self.state_["signal_names"]]
+        if not hasattr(self, "_signal_names"):  # read once a walk's step: kept
+            self._signal_names = [str(n) for n in self.state_["signal_names"]]
+        return list(self._signal_names)
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "state_"):
@@ -303,6 +347,14 @@ class MovementPrimitives:
         for type_ in self.types:
             self._type_arrays(type_)
         return self
+
+    def _primitive_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What conditioning takes from the primitives (:func:`_condition`), built once."""
+        if not hasattr(self, "_moments"):
+            s = self.state_
+            taper = 0.5 * (1.0 + np.cos(np.pi * s["tau"]))[:, None]
+            self._moments = (s["m"][:, 0], np.vstack([s["m"], s["m_cov_start"]]), taper)
+        return self._moments
 
     def _type_arrays(self, type_: str) -> dict:
         """Contiguous per-type slices of the state (built once), so predict is a few small products."""
@@ -319,10 +371,8 @@ class MovementPrimitives:
             self._cache[type_] = {
                 "lengths": np.ascontiguousarray(s["lengths"][g, :n]),
                 "chi": s["chi"][:, :, g].ravel(),
-                # training-step axes first, the I*S (signal, primitive) pairs last and contiguous
-                "beta": np.ascontiguousarray(s["beta"][:, :, g, :n].reshape(-1, n).T),
-                # (n, n, I*S): the posterior weight covariances laid out for one einsum
-                "C": np.ascontiguousarray(s["C"][:, :, g, :n, :n].reshape(-1, n, n).transpose(1, 2, 0)),
+                **_weight_solves(s["C"][:, :, g, :n, :n].reshape(-1, n, n), s["lengths"][g, :n],
+                                 s["alpha_w"].ravel(), s["gamma_w"].ravel(), s["beta"][:, :, g, :n].reshape(-1, n)),
                 "boundaries": s["boundaries"][g, : P + 1],
                 "support_radius": float(s["support_radius"][g]),
                 "dur_mean": s["dur_mean"][g, :P],
@@ -331,7 +381,7 @@ class MovementPrimitives:
                 "dur_beta": np.ascontiguousarray(s["dur_beta"][g, :P, :n]),
                 "dur_K_inv": np.ascontiguousarray(s["dur_K_inv"][g, :P, :n, :n]),
                 "alpha_w": s["alpha_w"].ravel(),
-                "minus_gamma_w": -s["gamma_w"].ravel(),
+                "gamma_w": s["gamma_w"].ravel(),
                 "nugget": s["alpha_w"].ravel() * s["eta_w"].ravel(),
                 # a new step's weights vary about the smooth function by the nugget too
                 "floor": (VARIANCE_FLOOR + s["eta_w"].ravel()) * s["alpha_w"].ravel(),
@@ -347,21 +397,27 @@ class MovementPrimitives:
         spec : StepSpec
         start : (I,) optional
             The previous step's final signals.  The step's initial joint angles and pelvis
-            orientation are conditioned to (nearly) equal them.  The ZMP is not: it jumps
-            at touchdown, in the OC data too.
+            orientation are conditioned to (nearly) equal them (:meth:`PredictedStep.conditioned_on`).
         """
+        step = self.predict_many([spec])[0]
+        return step if start is None else step.conditioned_on(start)
+
+    def predict_many(self, specs: list[StepSpec]) -> list[PredictedStep]:
+        """:meth:`predict` of every step of ``specs``, unconditioned, computed together for
+        the steps of each learned type (a walk's steps then cost a few array operations
+        together, not each)."""
         self._check_fitted()
-        trajectories = self._trajectory_types(step_type(spec))
-        if not trajectories:
-            raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
-        if len(trajectories) == 1:
-            return self._predict_trajectory(trajectories[0], spec, start)
-        # a step learned in parts: each part starts where the one before ended, as steps do
-        predicted = []
-        for type_ in trajectories:
-            predicted.append(self._predict_trajectory(type_, spec, start))
-            start = predicted[-1].values[-1]
-        return PredictedStep.joined(spec, predicted)
+        trajectories = [self._trajectory_types(step_type(spec)) for spec in specs]
+        for spec, types in zip(specs, trajectories):
+            if not types:
+                raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
+        predicted = {}  # (step index, trajectory type) -> PredictedStep
+        for type_ in {t for types in trajectories for t in types}:
+            rows = [k for k, types in enumerate(trajectories) if type_ in types]
+            for k, step in zip(rows, self._predict_type(type_, [specs[k] for k in rows])):
+                predicted[k, type_] = step
+        return [predicted[k, types[0]] if len(types) == 1 else PredictedStep.joined(spec, [predicted[k, t] for t in types])
+                for k, (spec, types) in enumerate(zip(specs, trajectories))]
 
     def _trajectory_types(self, type_: str) -> list[str]:
         """The learned trajectory types a step type is predicted from: itself, or its parts
@@ -374,42 +430,28 @@ class MovementPrimitives:
             self._trajectories[type_] = [type_] if type_ in types else parts
         return self._trajectories[type_]
 
-    def _predict_trajectory(self, type_: str, spec: StepSpec, start: np.ndarray | None) -> PredictedStep:
-        """:meth:`predict` for one learned trajectory type (a step type, or a part of one)."""
+    def _predict_type(self, type_: str, specs: list[StepSpec]) -> list[PredictedStep]:
+        """:meth:`predict_many` for steps of one learned trajectory type (a step type, or a part of one)."""
         c = self._type_arrays(type_)
-        z = step_lengths(spec, c["lengths"].shape[1])
-        d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
-        # weights of all (signal, primitive) pairs at once, flattened to (I*S,): cross-covariances
-        # with the type's training steps, then the GP posterior mean and variance.  The nugget
-        # is a step's own variation (kriging's nugget effect): it is shared with a training
-        # step of the same lengths, which the prediction then reproduces, and with no other
-        b = c["alpha_w"] * np.exp(np.multiply.outer(d2, c["minus_gamma_w"]))  # (n, I*S)
-        b += np.multiply.outer(d2 < SAME_LENGTHS_M2, c["nugget"])
-        w = c["chi"] + np.einsum("nk,nk->k", c["beta"], b)
-        var = c["alpha_w"] - (b * np.einsum("nmk,mk->nk", c["C"], b)).sum(axis=0)
-        shape = self.state_["alpha_w"].shape
+        z = np.array([step_lengths(spec, c["lengths"].shape[1]) for spec in specs])
+        d2 = ((c["lengths"] - z[:, None]) ** 2).sum(axis=-1)  # (steps, n)
+        w, var = _weight_posterior(c, d2)
+        shape = (len(specs), *self.state_["alpha_w"].shape)
         w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
-        m = self.state_["m"]
-        values, reduction = (w @ m).T, np.zeros((m.shape[1], shape[0]))
-        if start is not None:
-            values, reduction = _condition(
-                w, var, m, self.state_["m_cov_start"], np.asarray(start, dtype=float), c["conditioned"], self.state_["tau"]
-            )
-        k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2)  # (P, n)
-        durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=1))
-        log_var = c["dur_alpha"][:, 0] - (k[:, None, :] @ c["dur_K_inv"] @ k[:, :, None])[:, 0, 0]
-        distance = float(np.sqrt(d2.min()))
-        return PredictedStep(
-            spec,
-            self.state_["tau"],
-            values,
-            [(w, var, m, self.state_["m_var"], reduction)],
-            c["boundaries"],
-            durations,
-            durations * np.sqrt(np.maximum(log_var, 0.0)),
-            distance,
-            distance <= c["support_radius"] + 1e-9,
-        )
+        mean = (w @ self.state_["m"]).swapaxes(1, 2)
+        gain, cross, observed = _condition(w, var, self._primitive_moments(), c["conditioned"])
+        k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2[:, None, :])  # (steps, P, n)
+        durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=-1))
+        log_var = c["dur_alpha"][:, 0] - np.einsum("qpn,pnm,qpm->qp", k, c["dur_K_inv"], k)
+        duration_std = durations * np.sqrt(np.maximum(log_var, 0.0))
+        distance = np.sqrt(d2.min(axis=1))
+        primitives = (self.state_["m"], self.state_["m_var"])
+        return [
+            PredictedStep(spec, self.state_["tau"], [_Part(mean[q], w[q], var[q], gain[q], cross[q], observed[q])],
+                          primitives, c["boundaries"], durations[q], duration_std[q], float(distance[q]),
+                          bool(distance[q] <= c["support_radius"] + 1e-9))
+            for q, spec in enumerate(specs)
+        ]
 
     # ------------------------------------------------------------------ score
     def reconstruct(self, steps: TrainingSteps) -> tuple[np.ndarray, np.ndarray]:
@@ -433,18 +475,66 @@ class MovementPrimitives:
         return _fraction_explained(X, X_hat, slice(None))
 
 
+def _weight_solves(C: np.ndarray, lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, beta: np.ndarray) -> dict:
+    """The weight GPs' solves ``C_k`` (K, n, n) and ``beta_k`` (K, n) of one type, laid out so
+    that predicting the K weights of several steps costs a few array operations.
+
+    ``C_k = (B_k + I / c_k)^-1`` with the prior ``B_k = alpha_k (E(gamma_k) + eta_k I)`` and
+    ``E(gamma) = exp(-gamma D)`` over the training inputs' squared distances ``D``
+    (:func:`~cocomopl.primitives.optimise._prediction_arrays`), so ``C_k = U diag(1 /
+    (lambda + nu_k)) U^T / alpha_k`` in the eigenbasis ``E(gamma_k) = U diag(lambda) U^T``,
+    with ``nu_k = eta_k + 1 / (alpha_k c_k)``: a quadratic form costs O(n), not O(n^2).  The K
+    weights share a few distinct ``gamma`` (13 for 396 weights in the bundled omnidirectional
+    model): one eigenbasis each.  Read back from ``C``, the form reproduces it to a relative
+    4e-9 on the bundled models.
+
+    Returns ``basis`` (G, n, n) and ``unique_gamma`` (G,), ``gamma_of`` (K,) the basis of each
+    weight, ``nu`` (K,), ``beta`` (K, n) and ``inverse_spectrum`` (K, n), ``1 / (lambda + nu_k)``.
+    """
+    D = ((lengths[:, None] - lengths[None]) ** 2).sum(axis=-1)
+    unique_gamma, gamma_of = np.unique(gamma, return_inverse=True)
+    eigenvalues, basis = np.linalg.eigh(np.exp(-unique_gamma[:, None, None] * D))
+    # C_k^-1 = alpha_k (E + nu_k I), and E's diagonal is 1
+    nu = np.diagonal(np.linalg.inv(C), axis1=1, axis2=2).mean(axis=1) / alpha - 1.0
+    return {"basis": basis, "unique_gamma": unique_gamma, "gamma_of": gamma_of, "nu": nu, "beta": beta,
+            "inverse_spectrum": 1.0 / (eigenvalues[gamma_of] + nu[:, None])}
+
+
+def _weight_posterior(c: dict, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Posterior mean and variance (steps, K) of all K = I*S weights of one type at once, at
+    squared distances ``d2`` (steps, n) from its training steps.
+
+    The cross-covariances are ``b_k = alpha_k exp(-gamma_k d2) + nugget_k [d2 = 0]``.  The
+    nugget is a step's own variation (kriging's nugget effect): it is shared with a training
+    step of the same lengths, which the prediction then reproduces, and with no other.  The
+    variance's quadratic form ``b_k^T C_k b_k`` is taken in the eigenbasis of
+    :func:`_weight_solves`: ``sum_j (u_j^T b_k)^2 / (alpha_k (lambda_j + nu_k))``.
+    """
+    alpha, nugget, g = c["alpha_w"], c["nugget"], c["gamma_of"]
+    smooth = np.exp(-c["unique_gamma"][:, None] * d2[:, None, :])  # E(z), (steps, G, n)
+    projected = np.einsum("pgn,gnj->pgj", smooth, c["basis"])  # U^T E(z)
+    mean = c["chi"] + alpha * np.einsum("kn,pkn->pk", c["beta"], smooth[:, g])
+    same = (d2 < SAME_LENGTHS_M2).astype(float)
+    if not same.any():
+        return mean, alpha - alpha * np.einsum("kj,pkj->pk", c["inverse_spectrum"], projected[:, g] ** 2)
+    # at a training step's lengths: U^T b_k = alpha_k U^T E(z) + nugget_k U^T [d2 = 0]
+    projected = alpha[:, None] * projected[:, g] + nugget[:, None] * np.einsum("pn,gnj->pgj", same, c["basis"])[:, g]
+    mean += nugget * (same @ c["beta"].T)
+    return mean, alpha - np.einsum("kj,pkj->pk", c["inverse_spectrum"], projected**2) / alpha
+
+
 def _show_iteration(bar: tqdm, bound: float) -> None:
     bar.set_postfix(bound=f"{bound:.8g}", refresh=False)
     bar.update()
 
 
-def _condition(w, var, m, m_cov_start, start, conditioned, tau) -> tuple[np.ndarray, np.ndarray]:
-    """Condition each signal ``x_i(t) = W_i @ MP(t)`` on its value at the step's start.
+def _condition(w, var, moments, conditioned) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The gains by which each signal ``x_i(t) = W_i @ MP(t)`` follows its value at the step's start.
 
-    ``start`` (I,) is observed with a variance of ``CONDITION_RATIO`` times the predicted
-    one, only for the ``conditioned`` signals (I,).  The weights ``W_is ~ N(w_is, var_is)``
-    (I, S), independent of each other, and the primitives (means ``m`` (S, T), covariance with their start
-    ``m_cov_start`` (S, T)) are both uncertain and their product is not Gaussian, so the
+    The start is observed with a variance of ``CONDITION_RATIO`` times the predicted one,
+    only for the ``conditioned`` signals (I,).  The weights ``W_is ~ N(w_is, var_is)``
+    (I, S), independent of each other, and the primitives (means ``m`` (S, T) and their
+    covariance with their start) are both uncertain and their product is not Gaussian, so the
     update is linear with the exact first two moments: the Gaussian update moves every
     ``x_i(t)`` by ``k_i(t) = Cov(x_i(t), x_i(0)) / Var(x_i(0))`` times the start's innovation.
 
@@ -458,20 +548,23 @@ def _condition(w, var, m, m_cov_start, start, conditioned, tau) -> tuple[np.ndar
     end is the footstep's, and the variance falls by ``2 g Cov - g^2 Var(x_i(0))`` for
     the gain ``g`` actually used.
 
+    ``moments`` is ``(h, primitives, taper)`` (:meth:`MovementPrimitives._primitive_moments`):
+    the primitives' start values ``h`` (S,), their means over their covariance with the
+    start stacked, (2S, T), and the taper (T, 1).
+
+    ``w`` and ``var`` may carry leading axes (several steps at once): so do the results.
+
     Returns
     -------
-    values : (T, I) the conditioned signals' means
-    reduction : (T, I) the variance conditioning removed
+    gain, cross, observed : (T, I), (T, I), (I,)
+        The gain to apply to the start's innovation, ``Cov(x_i(t), x_i(0))`` and the start's
+        variance with the observation's: :func:`_signal_std` takes the three.
     """
-    h = m[:, 0]
-    second = w**2 + var  # E[W_is^2], (I, S)
-    through_weights = var * h  # Cov(W_i, x_i(0)), (I, S)
-    through_primitives = (second @ m_cov_start).T  # (T, I): the primitives' share of Cov(x_i(t), x_i(0))
-    cross = (through_weights @ m).T + through_primitives  # Cov(x_i(t), x_i(0)), (T, I)
-    observed = cross[0] * (1.0 + CONDITION_RATIO)  # Var(x_i(0)) plus the observation's variance
-    gain = conditioned * cross / observed * (0.5 * (1.0 + np.cos(np.pi * tau)))[:, None]  # (T, I)
-    values = (w @ m).T + gain * (start - w @ h)
-    return values, np.maximum(2.0 * gain * cross - gain**2 * observed, 0.0)
+    h, primitives, taper = moments
+    # Cov(x_i(t), x_i(0)) = sum_s var_is h_s m_s(t) + E[W_is^2] Cov(m_s(t), m_s(0)), (..., T, I)
+    cross = (np.concatenate([var * h, w**2 + var], axis=-1) @ primitives).swapaxes(-1, -2)
+    observed = cross[..., 0, :] * (1.0 + CONDITION_RATIO)  # Var(x_i(0)) plus the observation's variance
+    return cross * (conditioned / observed)[..., None, :] * taper, cross, observed
 
 
 class _SlotLayout:

@@ -60,10 +60,10 @@ def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, z:
     observed with the same noise, read back from the model's solves ``C = (B + I / c)^-1``.
     """
     arrays = model._type_arrays(type_)
-    alpha, gamma, nugget = arrays["alpha_w"], -arrays["minus_gamma_w"], arrays["nugget"]
+    alpha, gamma, nugget = arrays["alpha_w"], arrays["gamma_w"], arrays["nugget"]
     trained = arrays["lengths"]
-    prior = _kernel(((trained[:, None] - trained[None]) ** 2).sum(-1), alpha, gamma, nugget)
-    noise = np.diagonal(np.linalg.inv(arrays["C"].transpose(2, 0, 1)) - prior, axis1=1, axis2=2).mean(-1)
+    # C_k^-1 = alpha_k (1 + nu_k) on the diagonal, where the prior has alpha_k + nugget_k
+    noise = alpha * arrays["nu"] - nugget
     inputs = np.vstack([trained, added.reshape(-1, trained.shape[1])])
     K = _kernel(((inputs[:, None] - inputs[None]) ** 2).sum(-1), alpha, gamma, nugget)
     K += noise[:, None, None] * np.eye(len(inputs))

@@ -23,8 +23,9 @@ def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict:
     come with an :class:`OutOfSupportWarning` naming their distance to the data.
     """
     steps, end = [], None
-    for spec in specs:
-        step = model.predict(spec, start=end)
+    for spec, step in zip(specs, model.predict_many(specs)):
+        if end is not None:
+            step = step.conditioned_on(end)
         if not step.in_support:
             message = (
                 f"{spec.name} is {step.distance * 1000:.0f} mm from the nearest training step of its type; "
