@@ -56,6 +56,7 @@ from cocomopl.primitives.model_file import model_metadata
 from cocomopl.primitives.training import (
     TrainingSteps,
     load_training_steps,
+    parameter_count,
     phase_templates,
     resample,
     step_lengths,
@@ -166,10 +167,13 @@ class PCAPeer(_GridPeer):
 
     Signals are standardised (each divided by its standard deviation over the training
     steps and the grid) before the SVD, so that ZMP metres and joint radians weigh alike.
-    Start, cyclic and stop steps vary along one length (end, start and start respectively)
-    and are interpolated along it; transitions are interpolated barycentrically in the
-    Delaunay triangulation of their (start, end) lengths.  Outside the training data a step
-    takes its nearest training step's coefficients and durations.
+    Each step type's coefficients and phase durations are interpolated linearly in its step
+    parameters (:func:`~cocomopl.primitives.training.step_lengths`) over the affine hull
+    that its training steps span: along one length for start, cyclic and stop steps of the
+    straight model, barycentrically in the Delaunay triangulation of (start, end) lengths
+    for its transitions, and likewise in the few dimensions that a footstep grid's steady
+    gaits span.  Outside the training data a step takes its nearest training step's
+    coefficients and durations.
 
     Parameters
     ----------
@@ -188,13 +192,12 @@ class PCAPeer(_GridPeer):
         _, _, Vt = np.linalg.svd(flat - self.mean_, full_matrices=False)
         self.components_ = Vt[: self.n_components]
         coefficients = (flat - self.mean_) @ self.components_.T
+        self.n_parameters_ = parameter_count(steps.specs)
         self.tables_ = {}
         for type_ in self.types:
             ks = [k for k, s in enumerate(steps.specs) if step_type(s) == type_]
-            z = np.array([step_lengths(steps.specs[k]) for k in ks])
             self.tables_[type_] = {
-                "z": z,
-                "triangulation": _triangulate(z) if steps.specs[ks[0]].kind == "transition" else None,
+                "hull": _AffineHull(np.array([step_lengths(steps.specs[k], self.n_parameters_) for k in ks])),
                 "coefficients": coefficients[ks],
                 "durations": np.array([steps.durations[k] for k in ks]),
             }
@@ -202,43 +205,51 @@ class PCAPeer(_GridPeer):
 
     def predict(self, spec: StepSpec) -> GridStep:
         table = self.tables_[step_type(spec)]
-        w = _interpolation_weights(spec, table["z"], table["triangulation"])
+        w = table["hull"].weights(step_lengths(spec, self.n_parameters_))
         flat = self.mean_ + (w @ table["coefficients"]) @ self.components_
         values = (flat.reshape(len(self.scale_), N_GRID) * self.scale_[:, None]).T
         return GridStep(spec, self.tau_, values, w @ table["durations"])
 
 
-def _triangulate(z: np.ndarray) -> Delaunay | None:
-    """Delaunay triangulation of transition lengths; None (nearest neighbour) if they span no area."""
-    try:
-        return Delaunay(z)
-    except QhullError:
-        return None
+class _AffineHull:
+    """Linear interpolation among points ``z`` (n, D) in the affine subspace they span."""
 
+    def __init__(self, z: np.ndarray):
+        self.z, self.origin = z, z.mean(axis=0)
+        _, singular, Vt = np.linalg.svd(z - self.origin, full_matrices=False)
+        self.axes = Vt[singular > 1e-9 * max(1.0, singular.max(initial=0.0))]  # (r, D)
+        if len(self.axes) == z.shape[1]:  # spanning all: the points' own coordinates
+            self.origin, self.axes = np.zeros(z.shape[1]), np.eye(z.shape[1])
+        self.coords = (z - self.origin) @ self.axes.T  # (n, r)
+        self.triangulation = None
+        if len(self.axes) >= 2:
+            try:
+                self.triangulation = Delaunay(self.coords)
+            except QhullError:  # degenerate: nearest neighbour only
+                pass
 
-def _interpolation_weights(spec: StepSpec, z: np.ndarray, triangulation: Delaunay | None) -> np.ndarray:
-    """Weights of the training steps ``z`` (n, 2) whose sum interpolates them linearly at ``spec``."""
-    target = step_lengths(spec)
-    w = np.zeros(len(z))
-    if spec.kind == "transition":
-        simplex = int(triangulation.find_simplex(target)) if triangulation is not None else -1
-        if simplex >= 0:
-            T = triangulation.transform[simplex]
-            b = T[:2] @ (target - T[2])
-            w[triangulation.simplices[simplex]] = [*b, 1.0 - b.sum()]
-            return w
-        w[np.argmin(((z - target) ** 2).sum(axis=1))] = 1.0
+    def weights(self, target: np.ndarray) -> np.ndarray:
+        """Weights of the points whose sum interpolates them linearly at ``target`` (D,),
+        projected onto their subspace; the nearest point's alone outside their hull."""
+        x = (target - self.origin) @ self.axes.T
+        w = np.zeros(len(self.z))
+        if len(self.axes) == 1:
+            order = np.argsort(self.coords[:, 0])
+            xs = self.coords[order, 0]
+            j = int(np.searchsorted(xs, x[0]))
+            if 0 < j < len(xs):
+                f = (x[0] - xs[j - 1]) / (xs[j] - xs[j - 1])
+                w[order[j - 1]], w[order[j]] = 1.0 - f, f
+                return w
+        elif self.triangulation is not None:
+            simplex = int(self.triangulation.find_simplex(x))
+            if simplex >= 0:
+                T = self.triangulation.transform[simplex]
+                b = T[:-1] @ (x - T[-1])
+                w[self.triangulation.simplices[simplex]] = [*b, 1.0 - b.sum()]
+                return w
+        w[np.argmin(((self.z - target) ** 2).sum(axis=1))] = 1.0
         return w
-    axis = 1 if spec.kind == "start" else 0  # the length that varies: start steps begin at 0
-    order = np.argsort(z[:, axis])
-    x, xs = target[axis], z[order, axis]
-    j = int(np.searchsorted(xs, x))
-    if j == 0 or j == len(xs):  # outside the training lengths: nearest neighbour
-        w[order[min(j, len(xs) - 1)]] = 1.0
-    else:
-        f = (x - xs[j - 1]) / (xs[j] - xs[j - 1])
-        w[order[j - 1]], w[order[j]] = 1.0 - f, f
-    return w
 
 
 COLUMNS = (  # (header, unit, metric, scale)

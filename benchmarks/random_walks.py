@@ -78,7 +78,7 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
             "distance_m": float(rollout.measured.q[-1, 0] - rollout.measured.q[0, 0]),
         }
         if goal is not None:
-            errors = goal_errors(walk.robot, rollout.measured, goal)
+            errors = goal_errors(walk.robot, rollout.measured, [goal])
             out[name] |= {k: errors[k] for k in ("final_position_error_m", "final_yaw_error_deg")}
     return out
 

@@ -530,9 +530,10 @@ def _synthesis_options(parser: argparse.ArgumentParser) -> None:
     walk.add_argument("--footsteps", type=_footstep_file, metavar="FILE.csv",
                       help="walk on the footsteps of a CSV file with columns x_m,y_m,yaw_deg,side, one landing per "
                       "row (docs/cli.md#footstep-files)")
-    walk.add_argument("--to", type=_goal, metavar="X_M,Y_M,YAW_DEG",
+    walk.add_argument("--to", type=_goal, action="append", metavar="X_M,Y_M,YAW_DEG",
                       help="walk to a goal pose of the feet's midpoint, metres and degrees from the start, on "
-                      "footsteps planned within the model's learned range (docs/method.md#footstep-planner)")
+                      "footsteps planned within the model's learned range (docs/method.md#footstep-planner); "
+                      "given again, walk on to the next goal after stopping at this one")
     parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
     parser.add_argument("--dt", type=_positive_float, metavar="S",
                         help=f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})")

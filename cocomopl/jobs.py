@@ -385,12 +385,13 @@ def generate_walk_file(
     dataset: str | Path | None = None,
     progress: bool = False,
     landings=None,
-    goal: tuple[float, float, float] | None = None,
+    goal=None,
 ) -> dict:
     """Generate a walk with the primitives and write it as one motion to ``out`` (HDF5); with
     ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one;
     :func:`cocomopl.pipeline.refine`).  The walk is given by step ``lengths`` (m, start ...
-    stop), footstep ``landings`` or a ``goal`` pose, as in :func:`cocomopl.pipeline.generate_walk`.
+    stop), footstep ``landings`` or a ``goal`` pose (or several, in turn), as in
+    :func:`cocomopl.pipeline.generate_walk`.
 
     Returns per step its duration, uncertainty and training support, the timings, the
     dynamics filter's error left, the upper-body correction, ``warnings``, and with

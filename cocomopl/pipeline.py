@@ -25,7 +25,7 @@ from cocomopl.gait import M_GEN, M_OPT, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion
 from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
-from cocomopl.planning.goal import plan_to_goal
+from cocomopl.planning.goal import plan_through
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model
 from cocomopl.provenance import stamp
@@ -37,6 +37,7 @@ from cocomopl.synthesis.world import place_steps
 # (benchmarks/random_walks.py --seed 1), 25 of the 31 that fell were above it and 12 of the
 # 19 that walked below.
 FILTER_WARNING_M = 0.03
+Goal = tuple[float, float, float]  # x, y (m), yaw (rad) of the feet's midpoint, world frame
 # s: sample spacing of generated walks, the OC training data's knot spacing
 PLAN_DT = 0.025
 PLAN_DT_RANGE = (0.01, 0.05)  # s: see check_plan_dt; at 0.01 M_gen takes 76 s on 2 cores, at 0.005 500 s
@@ -71,14 +72,15 @@ def generate_walk(
     first_swing: str = "left",
     strict: bool = False,
     landings: Sequence[Landing] | None = None,
-    goal: tuple[float, float, float] | None = None,
+    goal: Goal | Sequence[Goal] | None = None,
 ) -> GeneratedWalk:
     """Generate and place a walk: start, ..., stop.
 
     The walk is one of: step ``lengths`` (m, straight ahead, ``first_swing`` first); the world
     ``landings`` of a footstep plan (:mod:`cocomopl.planning.footsteps`); or a ``goal`` pose
     (x, y in m, yaw in rad) of the feet's midpoint, planned within the model's learned
-    footstep range (:func:`~cocomopl.planning.goal.plan_to_goal`).
+    footstep range (:func:`~cocomopl.planning.goal.plan_to_goal`), or a list of such poses,
+    which the walk reaches in turn, stopping at each (:func:`~cocomopl.planning.goal.plan_through`).
 
     ``model_path`` defaults to the bundled model (for footsteps and goals, the bundled
     omnidirectional one) and ``dt`` (s) to ``PLAN_DT``.  Steps
@@ -100,7 +102,7 @@ def generate_walk(
     elif landings is not None:
         specs = walk_specs(robot, landings)
     else:
-        specs = plan_to_goal(robot, goal, model.footstep_range())
+        specs = plan_through(robot, goal_list(goal), model.footstep_range())
     dt = PLAN_DT if dt is None else check_plan_dt(dt)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)
@@ -233,13 +235,13 @@ def walk_report(
     refine_steps: bool = False,
     dataset: str | Path | None = None,
     landings: Sequence[Landing] | None = None,
-    goal: tuple[float, float, float] | None = None,
+    goal: Goal | Sequence[Goal] | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
-    The walk is given by step ``lengths``, footstep ``landings`` or a ``goal`` pose, as in
-    :func:`generate_walk`; with a goal the report adds how far the simulated robot's feet
-    ended from it (``final_position_error_m``, ``final_yaw_error_deg``).
+    The walk is given by step ``lengths``, footstep ``landings`` or a ``goal`` pose (or
+    several), as in :func:`generate_walk`; with goals the report adds how far the simulated
+    robot's feet ended from the last (``final_position_error_m``, ``final_yaw_error_deg``).
 
     With ``refine_steps`` the generated walk is refined by the OCPs of ``dataset`` (default:
     the bundled one; :func:`refine`) and the refined walk is simulated; the summary is
@@ -281,7 +283,7 @@ def walk_report(
             files.append(work / "walk.mp4")
         payload = {
             **({"lengths_mm": [1000 * x for x in lengths]} if lengths is not None else {"footsteps": walk.motion.meta["footsteps"]}),
-            **(goal_errors(walk.robot, rollout.measured, goal) if goal is not None else {}),
+            **(goal_errors(walk.robot, rollout.measured, goal_list(goal)) if goal is not None else {}),
             "steps": [s.spec.name for s in walk.steps],
             "stabilizer": stabilizer,
             "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
@@ -301,25 +303,35 @@ def walk_report(
     return payload
 
 
-def walk_label(lengths: Sequence[float] | None, goal: tuple[float, float, float] | None) -> str:
-    """How a walk was asked for, in a line: its lengths, its goal, or footsteps."""
+def goal_list(goal: Goal | Sequence[Goal]) -> list[Goal]:
+    """One goal pose (x, y, yaw) or a sequence of them, as a list of poses."""
+    return [tuple(goal)] if np.ndim(goal) == 1 else [tuple(g) for g in goal]
+
+
+def walk_label(lengths: Sequence[float] | None, goal: Goal | Sequence[Goal] | None) -> str:
+    """How a walk was asked for, in a line: its lengths, its goals, or footsteps."""
     if lengths is not None:
         return ",".join(f"{1000 * x:g}" for x in lengths) + " mm"
     if goal is not None:
-        return f"to {goal[0]:g} m, {goal[1]:g} m, {math.degrees(goal[2]):g} deg"
+        return "to " + " then ".join(f"{g[0]:g} m, {g[1]:g} m, {math.degrees(g[2]):g} deg" for g in goal_list(goal))
     return "on footsteps"
 
 
-def goal_errors(robot: Robot, motion: Motion, goal: tuple[float, float, float]) -> dict:
-    """The goal, and the distance (m) and heading error (deg) of the feet's midpoint at the
-    end of ``motion`` from it."""
+def _pose(goal: Goal) -> dict:
+    return {"x_m": goal[0], "y_m": goal[1], "yaw_deg": math.degrees(goal[2])}
+
+
+def goal_errors(robot: Robot, motion: Motion, goals: list[Goal]) -> dict:
+    """The goals, and the distance (m) and heading error (deg) of the feet's midpoint at the
+    end of ``motion`` from the last: ``goal``, and ``waypoints`` where the walk stopped before it."""
     soles = {}
     for side in SIDES:
         M = robot.frame_placement(motion.q[-1], robot.foot_frames[side])
         soles[side] = np.array([M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0])])
-    end = midpoint(soles)
+    end, goal = midpoint(soles), goals[-1]
     return {
-        "goal": {"x_m": goal[0], "y_m": goal[1], "yaw_deg": math.degrees(goal[2])},
+        "goal": _pose(goal),
+        **({"waypoints": [_pose(g) for g in goals[:-1]]} if len(goals) > 1 else {}),
         "final_position_error_m": float(np.hypot(end[0] - goal[0], end[1] - goal[1])),
         "final_yaw_error_deg": abs(math.degrees(wrap_angle(end[2] - goal[2]))),
     }

@@ -3,10 +3,12 @@
 Everything is checked on the small dataset of conftest.py, recomputed with Pinocchio.
 """
 
+import copy
+
 import numpy as np
 import pytest
 
-from cocomopl.analysis.feasibility import check_motion, tolerances
+from cocomopl.analysis.feasibility import FORCE_RESOLUTION, check_motion, tolerances, violations
 from cocomopl.analysis.metrics import landing_speeds
 from cocomopl.dataset.continuity import step_mismatch
 from cocomopl.dataset.plan import successors
@@ -52,6 +54,20 @@ def test_limits_friction_and_unilateral_forces(robot, motions):
         assert r["friction_ratio"] <= 1.0, name
         assert r["min_normal_force"] >= 0.0, name
         assert r["stance_foot_slip"] <= TOLERANCES["stance_foot_slip"], name
+
+
+def test_a_sole_pulling_by_more_than_the_force_resolution_fails_and_numerical_zeros_pass(robot, motions):
+    """A contact force no larger than ``FORCE_RESOLUTION`` is zero (an unloading sole carries
+    a few mN of either sign at a penalised solver's optimum); a pull or a slip beyond it fails."""
+    motion = motions["cyclic_200_R"]
+    k = int(np.flatnonzero(motion.contact.all(axis=1))[0])  # in double support
+    tiny = 0.6 * FORCE_RESOLUTION
+    for force, failing in (([tiny, 0.0, -tiny], []), ([0.0, 0.0, -1.0], ["min_normal_force"]),
+                           ([0.5, 0.0, 0.0], ["friction_ratio"])):
+        edited = copy.deepcopy(motion)
+        edited.wrenches[k, 0] = [*force, 0.0, 0.0, 0.0]
+        report = check_motion(robot, edited, SMALL.friction)
+        assert [name for name in ("min_normal_force", "friction_ratio") if name in violations(report, TOLERANCES)] == failing
 
 
 def test_swing_soles_keep_to_their_lanes(robot, motions):

@@ -10,7 +10,7 @@ import pytest
 
 from cocomopl.data import BUNDLED_MODEL
 from cocomopl.errors import Error
-from cocomopl.gait import check_footstep, foot_separation, footstep_pose, sequence_specs
+from cocomopl.gait import check_footstep, foot_separation, footstep_pose, sequence_specs, wrap_angle
 from cocomopl.motion import Footstep
 from cocomopl.planning.footsteps import (
     Landing,
@@ -22,7 +22,7 @@ from cocomopl.planning.footsteps import (
     walk_specs,
     write_landings,
 )
-from cocomopl.planning.goal import parse_goal, plan_to_goal
+from cocomopl.planning.goal import parse_goal, plan_through, plan_to_goal
 
 from conftest import assert_one_line_error, run_cli
 
@@ -70,6 +70,22 @@ def test_the_planner_ends_at_the_goal_on_footsteps_in_range_and_clear_of_each_ot
         check_footstep(robot, spec.swing_side, *footstep)
     # the fewest steps: one landing fewer cannot reach it within the range
     assert len(specs) >= 2
+
+
+def test_a_walk_through_goals_stops_at_each_and_ends_at_the_last(robot):
+    """Around a 1 m square: the plan stops (feet side by side) at every corner, within the
+    planner's tolerance, and ends where it started."""
+    goals = [(1.0, 0.0, 90.0), (1.0, 1.0, 180.0), (0.0, 1.0, -90.0), (0.0, 0.0, 0.0)]
+    specs = plan_through(robot, [(x, y, math.radians(yaw)) for x, y, yaw in goals])
+    stops = [k for k, spec in enumerate(specs) if spec.kind == "stop"]
+    assert len(stops) == 4 and stops[-1] == len(specs) - 1
+    assert all(specs[k + 1].kind == "start" for k in stops[:-1])
+    for k, (x, y, yaw) in zip(stops, goals):
+        end = midpoint(soles_after(robot, specs[: k + 1]))
+        assert math.hypot(end[0] - x, end[1] - y) < 1e-3
+        assert abs(math.degrees(wrap_angle(end[2] - math.radians(yaw)))) < 0.1
+    with pytest.raises(Error, match="at least one goal"):
+        plan_through(robot, [])
 
 
 def test_the_planner_keeps_to_a_model_s_range_and_says_why_it_cannot(robot):
@@ -141,6 +157,16 @@ def test_bad_footsteps_or_goals_on_the_command_line_are_one_line_and_write_nothi
     result = run_cli(*args, *out, cwd=tmp_path)
     assert_one_line_error(result, *words)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv"]
+
+
+def test_generate_walks_through_goals_given_in_turn(tmp_path):
+    result = run_cli("generate", "--to", "0.3,0,0", "--to", "0.3,0,-20", "--out", "walk.h5", "--json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    import json
+
+    steps = [r["step"] for r in json.loads(result.stdout)["steps"]]
+    assert steps[0].startswith("start") and steps[-1].startswith("stop")
+    assert sum(s.startswith("stop") for s in steps) == 2 and sum(s.startswith("start") for s in steps) == 2
 
 
 def test_generate_walks_a_footstep_file_and_reports_its_landings(tmp_path):

@@ -17,6 +17,7 @@ footstep clear of collision, is the plan.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -104,6 +105,26 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | 
         + (" (a model of straight steps: it reaches goals straight ahead only)"
            if limits["width"] == (0.0, 0.0) and limits["turn"] == (0.0, 0.0) else "")
     )
+
+
+def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], limits: dict | None = None) -> list[StepSpec]:
+    """The walks of :func:`plan_to_goal` to each of ``goals`` in turn: the robot stops at
+    every goal, feet side by side, and walks on from there to the next.
+
+    ``goals`` are world poses (x, y, yaw) of the feet's midpoint and heading (m, rad); each
+    walk is planned from where the planned walk before it ends (within
+    ``POSITION_TOLERANCE_M`` and ``YAW_TOLERANCE_RAD`` of its goal), so the plan's error does
+    not add up over the goals.
+    """
+    if not goals:
+        raise Error("a walk through goals needs at least one goal")
+    specs: list[StepSpec] = []
+    for goal in goals:
+        here = midpoint(soles_after(robot, specs)) if specs else np.zeros(3)
+        c, s = math.cos(here[2]), math.sin(here[2])
+        dx, dy = goal[0] - here[0], goal[1] - here[1]
+        specs += plan_to_goal(robot, (c * dx + s * dy, -s * dx + c * dy, wrap_angle(goal[2] - here[2])), limits)
+    return specs
 
 
 def _shown(key: str, value: float) -> str:
