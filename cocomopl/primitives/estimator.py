@@ -333,7 +333,7 @@ class MovementPrimitives:
 
     @property
     def signal_names(self) -> list[str]:
-        if not hasattr(self, "_signal_names"):  # read once a walk's step: kept
+        if not hasattr(self, "_signal_names"):  # kept: generation reads it at every step
             self._signal_names = [str(n) for n in self.state_["signal_names"]]
         return list(self._signal_names)
 
