@@ -14,9 +14,11 @@ With ``--goals``, each walk goes to a random goal pose instead (within 1.5 m ahe
 behind or aside and 90 degrees, :func:`random_goal`): its footsteps are planned within the
 bundled omnidirectional model's range (``cocomopl walk --to``), and it is also measured
 against the goal and walked by the Kajita baseline on the same footsteps and timing.
+With ``--feedforward``, each walk is also simulated without the stabilizer but with the
+servos' torque feedforward from the plan (``cocomopl walk --no-stabilizer --feedforward``).
 
-    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals] [--workers 2]
-        [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
+    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals] [--feedforward]
+        [--workers 2] [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
 """
 
 from __future__ import annotations
@@ -40,10 +42,17 @@ from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 
-def run_one(request: dict, contact_time_constant: float, model: str, reference_cutoff_hz: float) -> dict:
+def run_names(goals: bool, feedforward: bool) -> tuple[str, ...]:
+    """The simulations of each walk: the generated walk with and without the stabilizer,
+    without it but with torque feedforward, the Kajita baseline (with the stabilizer)."""
+    return ("stabilizer", "no_stabilizer") + (("feedforward",) if feedforward else ()) + (("kajita",) if goals else ())
+
+
+def run_one(request: dict, contact_time_constant: float, model: str, reference_cutoff_hz: float,
+            feedforward: bool = False) -> dict:
     """One walk: ``request`` is ``{"lengths_mm": [...]}`` or ``{"goal": [x_m, y_m, yaw_deg]}``;
     a goal's walk is also measured against the goal, and the Kajita baseline walks its
-    footsteps with the same timing (with the stabilizer)."""
+    footsteps with the same timing (with the stabilizer); :func:`run_names`."""
     from cocomopl.analysis.feasibility import check_motion, tolerances, violations
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.pipeline import generate_walk, goal_errors, kajita_for
@@ -66,11 +75,12 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
     out = {**request, "steps": len(walk.steps), "duration_s": walk.motion.duration, "plan_checks": checks,
            "plan_violations": violations(checks, tolerances(float(np.median(np.diff(walk.motion.t)))))}
     weight = walk.robot.mass * 9.81
-    runs = [("stabilizer", walk.motion, True), ("no_stabilizer", walk.motion, False)]
-    if goal is not None:
-        runs.append(("kajita", kajita_for(walk), True))
-    for name, motion, stabilizer in runs:
-        rollout = simulate(sim, motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz)
+    runs = {"stabilizer": (walk.motion, True, False), "no_stabilizer": (walk.motion, False, False),
+            "feedforward": (walk.motion, False, True)}
+    for name in run_names(goal is not None, feedforward):
+        motion, stabilizer, servo_feedforward = runs[name] if name != "kajita" else (kajita_for(walk), True, False)
+        rollout = simulate(sim, motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz,
+                           feedforward=servo_feedforward)
         out[name] = {
             "fell": rollout.fell,
             "fall_time_s": rollout.fall_time,
@@ -105,6 +115,8 @@ def main() -> int:
     parser.add_argument("--max-change-mm", type=float, default=100.0)
     parser.add_argument("--goals", action="store_true",
                         help="omnidirectional walks instead: random goal poses, footsteps planned within the model's range")
+    parser.add_argument("--feedforward", action="store_true",
+                        help="also simulate each walk without the stabilizer but with the servos' torque feedforward")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--contact-time-constant-s", type=float, default=CONTACT_TIME_CONSTANT,
                         help="sole-floor contact softness in s (default: %(default)s)")
@@ -128,16 +140,17 @@ def main() -> int:
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
         results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s, model=args.model,
-                                                    reference_cutoff_hz=args.reference_cutoff_hz), sequences), total=len(sequences), desc="random walks", file=sys.stderr))
+                                                    reference_cutoff_hz=args.reference_cutoff_hz, feedforward=args.feedforward),
+                                  sequences), total=len(sequences), desc="random walks", file=sys.stderr))
     unplanned = [r for r in results if "unplanned" in r]
     results = [r for r in results if "unplanned" not in r]
     if not results:
         parser.error(f"no walk could be planned: {unplanned[0]['unplanned']}")
     summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
-               "goals": args.goals, "unplanned": unplanned, "walks": len(results),
+               "goals": args.goals, "feedforward": args.feedforward, "unplanned": unplanned, "walks": len(results),
                "contact_time_constant_s": args.contact_time_constant_s, "reference_cutoff_hz": args.reference_cutoff_hz,
                "wall_time_s": time.perf_counter() - started}
-    runs = ("stabilizer", "no_stabilizer") + (("kajita",) if args.goals else ())
+    runs = run_names(args.goals, args.feedforward)
     for name in runs:
         walked = [not r[name]["fell"] for r in results]
         summary[name] = {

@@ -396,7 +396,8 @@ def cmd_simulate(args) -> int:
 
     _note_replacing(args.out or f"{Path(args.file).stem}-sim.h5", inputs=[args.file])
     payload = simulate_file(args.file, args.motion, args.out, not args.no_stabilizer, args.contact_time_constant_s,
-                            args.reference_cutoff_hz, args.command_line, progress=not args.json)
+                            args.reference_cutoff_hz, args.command_line, progress=not args.json,
+                            feedforward=args.feedforward)
     _emit(args, payload, _metrics_table(payload) + f"\nwrote {payload['output']}")
     return 1 if payload["fell"] else 0
 
@@ -413,7 +414,7 @@ def cmd_walk(args) -> int:
                           progress=not args.json, contact_time_constant=args.contact_time_constant_s,
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
                           strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data,
-                          **request)
+                          feedforward=args.feedforward, **request)
     for message in payload["warnings"]:
         _warn(message)
     lines = [f"walk {label}: "
@@ -517,6 +518,13 @@ def _simulation_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference-cutoff-hz", type=_reference_cutoff, metavar="HZ",
                         help=f"cut-off of the reference joints' low-pass, in Hz (default: {REFERENCE_CUTOFF_HZ:g}; "
                         "0 plays the plan's knots interpolated linearly)")
+
+
+def _servo_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    parser.add_argument("--feedforward", action="store_true",
+                        help="torque feedforward: offset each servo command by the plan's joint torque and velocity "
+                        "over the servo's gains, so that the servos neither sag under the load nor lag")
 
 
 def _synthesis_options(parser: argparse.ArgumentParser) -> None:
@@ -700,7 +708,7 @@ def _simulation_parsers(sub) -> None:
     walk = sub.add_parser("walk", help="the main job: generate a walk with the primitives, simulate it, write a report")
     _synthesis_options(walk)
     walk.add_argument("--out", default="cocomopl-walk", metavar="DIR", help="report folder (default: %(default)s)")
-    walk.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    _servo_options(walk)
     walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
     _refine_options(walk)
     _simulation_options(walk)
@@ -724,7 +732,7 @@ def _simulation_parsers(sub) -> None:
     simulate.add_argument("file", metavar="MOTION.h5", help="motion HDF5 file (e.g. from 'cocomopl generate')")
     simulate.add_argument("--motion", metavar="NAME", help="motion name (needed when the file holds several)")
     simulate.add_argument("--out", metavar="FILE.h5", help="measured motion HDF5 (default: <file>-sim.h5)")
-    simulate.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
+    _servo_options(simulate)
     _simulation_options(simulate)
     _json_option(simulate)
     simulate.set_defaults(func=cmd_simulate)

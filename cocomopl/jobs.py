@@ -388,8 +388,8 @@ def generate_walk_file(
     goal=None,
 ) -> dict:
     """Generate a walk with the primitives and write it as one motion to ``out`` (HDF5); with
-    ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one;
-    :func:`cocomopl.pipeline.refine`).  The walk is given by step ``lengths`` (m, start ...
+    ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one
+    the model belongs with; :func:`cocomopl.pipeline.refine`).  The walk is given by step ``lengths`` (m, start ...
     stop), footstep ``landings`` or a ``goal`` pose (or several, in turn), as in
     :func:`cocomopl.pipeline.generate_walk`.
 
@@ -401,7 +401,7 @@ def generate_walk_file(
     from cocomopl.synthesis.step_chain import joint_std_max
 
     model = model_path(model, omni=lengths is None)
-    dataset = dataset_path(dataset) if refine_steps else None
+    dataset = dataset_path(dataset, omni=lengths is None) if refine_steps else None
     out = output_file(out, "motion.h5", inputs=[model] + ([dataset] if dataset else []))
     walk = generate_walk(lengths, model, dt, first_swing, strict, landings, goal)
     motion, refined = walk.motion, None
@@ -431,15 +431,16 @@ def refine_walk_file(
     command: str | None = None,
     progress: bool = False,
 ) -> dict:
-    """Refine a generated walk of a file by the OCPs of ``dataset`` (default: the bundled one)
-    and write the refined walk to ``out`` (default: ``<file>-refined.h5``).
+    """Refine a generated walk of a file by the OCPs of ``dataset`` (default: the bundled one,
+    the omnidirectional one for a walk that turns or side-steps) and write the refined walk to
+    ``out`` (default: ``<file>-refined.h5``).
 
     Returns the summary of :func:`cocomopl.pipeline.refine`.
     """
     from cocomopl.pipeline import refine
 
     walk = read_motion(path, motion_name)
-    dataset = dataset_path(dataset)
+    dataset = dataset_path(dataset, omni=not all(spec.straight for spec in walk.steps))
     out = output_file(out or f"{Path(path).stem}-refined.h5", "motion.h5", inputs=[path, dataset])
     refined, summary = refine(walk, dataset, progress)
     write_motions(out, {refined.motion.name: refined.motion},
@@ -457,9 +458,11 @@ def simulate_file(
     reference_cutoff_hz: float | None = None,
     command: str | None = None,
     progress: bool = False,
+    feedforward: bool = False,
 ) -> dict:
-    """Run a motion of a file in MuJoCo as a position-controlled robot and write the
-    measured motion to ``out`` (default: ``<file>-sim.h5`` in the working folder).
+    """Run a motion of a file in MuJoCo as a position-controlled robot (with ``feedforward``,
+    torque feedforward from the plan) and write the measured motion to ``out`` (default:
+    ``<file>-sim.h5`` in the working folder).
 
     Returns the metrics against the reference (``fell`` among them) and the settings used.
     """
@@ -470,10 +473,11 @@ def simulate_file(
     robot = load_robot(reference.robot)
     rollout, metrics = simulate_walk(robot, reference, stabilizer=stabilizer, progress=progress,
                                      contact_time_constant=contact_time_constant,
-                                     reference_cutoff_hz=reference_cutoff_hz)
+                                     reference_cutoff_hz=reference_cutoff_hz, feedforward=feedforward)
     write_motions(out, {"measured": rollout.measured},
                   {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
     return {"output": str(out), "stabilizer": stabilizer, "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
+            "feedforward": feedforward,
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
 

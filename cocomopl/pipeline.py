@@ -129,7 +129,8 @@ def generate_walk(
 
 def refine(motion: Motion, dataset_path: str | Path | None = None, progress: bool = False):
     """Refine a generated walk by the OCPs of the dataset it was learned from (by default the
-    bundled one; :func:`cocomopl.ocp.refine.refine_walk`).
+    bundled one, the omnidirectional one for a walk that turns or side-steps;
+    :func:`cocomopl.ocp.refine.refine_walk`).
 
     Returns the :class:`~cocomopl.ocp.refine.RefinedWalk` and its summary: per step the
     solver's ``iterations`` and whether it ``converged``, ``iterations_median``, ``refine_s``
@@ -142,11 +143,11 @@ def refine(motion: Motion, dataset_path: str | Path | None = None, progress: boo
     from cocomopl.ocp.refine import check_refinable, refine_walk, torque_cost
     from cocomopl.ocp.settings import OCPSettings
 
-    dataset_path = bundled_dataset_path(dataset_path)
+    dataset_path = bundled_dataset_path(dataset_path, omni=not all(spec.straight for spec in motion.steps))
     dataset, attrs = read_motions(dataset_path, dataset=True)
     robot = load_robot(next(iter(dataset.values())).robot)
     check_refinable(motion, robot)
-    gait_states = {m.steps[0].start_length: np.concatenate([m.q[0], m.v[0]]) for m in dataset.values()
+    gait_states = {m.steps[0].start_footstep.gait_key: np.concatenate([m.q[0], m.v[0]]) for m in dataset.values()
                    if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
     refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress, gait_states)
     iterations = [row["iterations"] for row in refined.steps]
@@ -180,6 +181,7 @@ def simulate_walk(
     contact_time_constant: float | None = None,
     reference_cutoff_hz: float | None = None,
     gains=None,
+    feedforward: bool = False,
 ):
     """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
 
@@ -187,7 +189,8 @@ def simulate_walk(
     """
     from cocomopl.analysis.metrics import summary
 
-    rollout = rollout_of(robot, motion, stabilizer, video, progress, contact_time_constant, reference_cutoff_hz, gains)
+    rollout = rollout_of(robot, motion, stabilizer, video, progress, contact_time_constant, reference_cutoff_hz, gains,
+                         feedforward)
     return rollout, summary(robot, rollout.measured, motion)
 
 
@@ -200,20 +203,23 @@ def rollout_of(
     contact_time_constant: float | None = None,
     reference_cutoff_hz: float | None = None,
     gains=None,
+    feedforward: bool = False,
 ):
     """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo; with ``video``, also
     rendered there (MP4).  ``contact_time_constant`` (s) sets the sole-floor softness
     (default: the model's), ``reference_cutoff_hz`` the reference's low-pass (default: the
     rollout's; 0: none), ``gains`` the stabilizer's
     (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default: those tuned for the
-    motion's generator)."""
+    motion's generator), ``feedforward`` the servos' torque feedforward from the plan
+    (:func:`~cocomopl.sim.rollout.simulate`)."""
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
 
     sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
     cutoff = REFERENCE_CUTOFF_HZ if reference_cutoff_hz is None else reference_cutoff_hz
-    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains)
+    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains,
+                       feedforward=feedforward)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout
@@ -236,6 +242,7 @@ def walk_report(
     dataset: str | Path | None = None,
     landings: Sequence[Landing] | None = None,
     goal: Goal | Sequence[Goal] | None = None,
+    feedforward: bool = False,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -251,7 +258,7 @@ def walk_report(
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
     written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
     interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
-    :func:`generate_walk`'s.
+    :func:`generate_walk`'s; ``feedforward`` the servos' torque feedforward (:func:`rollout_of`).
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -259,9 +266,9 @@ def walk_report(
     from cocomopl.motion_file import report_folder, write_json, write_motions
 
     started = time.perf_counter()
-    dataset = bundled_dataset_path(dataset) if refine_steps else None
     # missing inputs are refused before anything is written
     omni = lengths is None
+    dataset = bundled_dataset_path(dataset, omni) if refine_steps else None
     provenance = walk_provenance(command, model_path, omni, dataset=dataset)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path, omni)] + ([dataset] if dataset else [])) as work:
         walk = generate_walk(lengths, model_path, dt, first_swing, strict, landings, goal)
@@ -272,6 +279,7 @@ def walk_report(
         rollout, metrics = simulate_walk(
             walk.robot, planned["refined" if refine_steps else "generated"], stabilizer,
             work / "walk.mp4" if video else None, progress, contact_time_constant, reference_cutoff_hz,
+            feedforward=feedforward,
         )
         motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
@@ -287,6 +295,7 @@ def walk_report(
             "steps": [s.spec.name for s in walk.steps],
             "stabilizer": stabilizer,
             "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
+            "feedforward": feedforward,
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
             **metrics,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cocomopl.data import BUNDLED_DATASET
-from cocomopl.primitives import em
+from cocomopl.primitives import em, slot_algebra
 from cocomopl.primitives.bound import free_energy, mp_prior, weight_prior
 from cocomopl.primitives.estimator import _SlotLayout, pca_signal_weights
 from cocomopl.primitives.optimise import LOG_BOUNDS, initial_parameters, maximise_bound
@@ -31,8 +31,8 @@ def _start(problem):
     X, mask, d2, tau, weights = problem
     params, data = initial_parameters(X, mask, d2, tau, S, weights)
     hyper = {k: np.asarray(params[k], dtype=float) for k in em.HYPERPARAMETERS}
-    q = {**em._posterior_start(params, data, KERNEL), "chi": params["chi"], "sigma2": np.exp(2 * params["log_sigma"])}
     A, B = np.asarray(mp_prior(hyper, data, KERNEL)), np.asarray(weight_prior(hyper, data))
+    q = {**em._posterior_start(params, A, B, data), "chi": params["chi"], "sigma2": np.exp(2 * params["log_sigma"])}
     return q, hyper, A, B, data, params
 
 
@@ -90,3 +90,32 @@ def test_the_m_step_cannot_lower_the_bound_and_moves_the_time_kernels(problem):
     assert np.abs(new["log_ell_t"] - hyper["log_ell_t"]).max() > 0.1  # the time kernels learn
     assert np.abs(new["log_alpha_t"] - hyper["log_alpha_t"]).max() > 0.1
     assert np.all((new["log_eta_w"] >= LOG_BOUNDS["log_eta_w"][0]) & (new["log_eta_w"] <= LOG_BOUNDS["log_eta_w"][1]))
+
+
+@pytest.mark.parametrize("xp", [np, jnp], ids=["numpy", "jax"])
+def test_slot_algebra_at_each_types_size_equals_the_dense_algebra(xp):
+    """Types of 3, 7, 3 and 5 steps padded to 7 slots: Cholesky, inverse and solves taken per
+    type at its own size equal NumPy's on the padded matrices (a padded slot has only a
+    diagonal entry, as in the weight GPs' priors and posteriors)."""
+    rng = np.random.default_rng(0)
+    sizes, N = [3, 7, 3, 5], 7
+    mask = (np.arange(N) < np.array(sizes)[:, None]).astype(float)
+    M = np.zeros((2, len(sizes), N, N))
+    for b, g in np.ndindex(M.shape[:2]):
+        n = sizes[g]
+        A = rng.normal(size=(n, n))
+        M[b, g, :n, :n] = A @ A.T + n * np.eye(n)
+        M[b, g, n:, n:] = np.diag(rng.uniform(1.0, 2.0, N - n))
+    groups = slot_algebra.size_groups(mask)
+    assert [n for n, _ in groups] == [3, 5, 7] and list(groups[0][1]) == [0, 2]
+    R = rng.normal(size=(2, len(sizes), N, 3))
+    L, inverse = slot_algebra.cholesky_and_inverse(xp.asarray(M), groups, xp)
+    np.testing.assert_allclose(np.asarray(slot_algebra.cholesky(xp.asarray(M), groups, xp)), np.linalg.cholesky(M), atol=1e-14)
+    np.testing.assert_allclose(np.asarray(L), np.linalg.cholesky(M), atol=1e-14)
+    np.testing.assert_allclose(np.asarray(inverse), np.linalg.inv(M), atol=1e-14)
+    np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(M), xp.asarray(R), groups, xp)),
+                               np.linalg.solve(M, R), atol=1e-13)
+    # triangular factors, and right-hand sides with more leading axes than the matrices
+    R5 = rng.normal(size=(5, 2, len(sizes), N, 2))
+    np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(np.asarray(L)), xp.asarray(R5), groups, xp)),
+                               np.linalg.solve(np.linalg.cholesky(M), R5), atol=1e-13)

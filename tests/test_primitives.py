@@ -158,6 +158,19 @@ def test_a_stop_is_predicted_in_its_two_learned_parts_and_joined_at_its_middle_t
     np.testing.assert_allclose(values[touchdown[0] + 1], step.values[cut[0] + 1], atol=1e-12)
 
 
+def test_predicting_steps_together_equals_predicting_each_and_a_repeated_step_once(model):
+    """A walk's steps are predicted together per type (``predict_many``), a repeated step once."""
+    specs = sequence_specs(list(M_GEN)) + sequence_specs([0.25] * 6)
+    together = model.predict_many(specs)
+    for spec, step in zip(specs, together):
+        alone = model.predict(spec)
+        np.testing.assert_allclose(step.values, alone.values, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(step.std, alone.std, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(step.durations, alone.durations, rtol=0, atol=1e-12)
+    repeated = [k for k, spec in enumerate(specs) if spec == specs[-2]]  # a cyclic step of the steady gait
+    assert len(repeated) >= 2 and all(together[k] is together[-2] for k in repeated)
+
+
 def test_pca_weights_give_each_signal_group_the_same_total_variance(steps):
     from cocomopl.primitives.estimator import pca_signal_weights, signal_groups
 

@@ -100,3 +100,19 @@ def test_a_step_ending_at_a_trained_length_is_held_to_the_datasets_gait_state(ro
     np.testing.assert_array_equal(held.x_target, next_step_state(robot, gait, landing_point(held.phases)))
     free = step_plan_from(robot, start, None, SMALL, gait_states={0.3: gait})
     np.testing.assert_array_equal(free.x_target, still_soles(robot, start.states[-1]))
+
+
+def test_a_turning_walk_is_refined_on_its_own_footsteps(robot):
+    """Each step's guess is turned into its stance sole's frame and the refined steps are
+    turned back: the refined walk obeys the dynamics and ends on the generated walk's feet."""
+    walk = generate_walk(goal=(0.15, 0.05, np.radians(15)))
+    assert not all(spec.straight for spec in walk.motion.steps)
+    refined = refine_walk(robot, walk.motion, SMALL)
+    assert all(row["converged"] for row in refined.steps)
+    report = check_motion(robot, refined.motion, SMALL.friction)
+    assert report["inverse_dynamics_residual"] < 1e-6 and report["zmp_margin"] > 0
+    for side in ("left", "right"):
+        generated = robot.frame_placement(walk.motion.q[-1], robot.foot_frames[side])
+        ended = robot.frame_placement(refined.motion.q[-1], robot.foot_frames[side])
+        np.testing.assert_allclose(ended.translation[:2], generated.translation[:2], atol=2e-3)
+        np.testing.assert_allclose(ended.rotation, generated.rotation, atol=2e-3)

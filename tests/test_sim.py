@@ -195,3 +195,18 @@ def test_reference_filter_keeps_the_gait_and_removes_the_knot_rate(robot):
     assert np.abs(b - 0.3 * swing)[(grid > 1.2) & (grid < 2.8)].max() < 0.003
     residual = a - 0.3 * swing
     assert np.abs(b - 0.3 * swing)[(grid > 1.2) & (grid < 2.8)].max() < 0.3 * np.abs(residual).max()
+
+
+def test_torque_feedforward_makes_the_servos_track_the_plan(robot, sim):
+    """A position servo sags under its load by tau / kp and lags by its damping; offsetting
+    the commands by the plan's torques and velocities removes nearly all of it (measured: the
+    RMS joint error of this OC step falls from 12 to 0.7 mrad)."""
+    reference = read_motion(DATASET, "start_250_L")
+    errors = {}
+    for feedforward in (False, True):
+        measured = simulate(sim, reference, stabilizer=False, feedforward=feedforward).measured
+        assert measured.meta["feedforward"] is feedforward
+        playing = measured.t <= reference.duration
+        planned = np.column_stack([np.interp(measured.t[playing], reference.t - reference.t[0], x) for x in reference.q[:, 7:].T])
+        errors[feedforward] = np.sqrt(np.mean((measured.q[playing, 7:] - planned) ** 2))
+    assert errors[True] < 0.2 * errors[False]

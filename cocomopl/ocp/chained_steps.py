@@ -19,6 +19,7 @@ from tqdm import tqdm
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, footsteps
 from cocomopl.motion import Motion, StepSpec
+from cocomopl.ocp.problems import translate_state, turn_state
 from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import solve_transition
 from cocomopl.robot import Robot, mirror_motion
@@ -48,12 +49,17 @@ def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], 
     return motion if spec.swing_side == "left" else mirror_motion(robot, motion)
 
 
-def place(motion: Motion, stance_xy: np.ndarray) -> Motion:
-    """A step motion moved from its own frame onto the world position of its stance sole."""
-    q, zmp = motion.q.copy(), motion.zmp.copy()
-    q[:, :2] += stance_xy
-    zmp[:, :2] += stance_xy
-    return dataclasses.replace(motion, q=q, zmp=zmp)
+def place(robot: Robot, motion: Motion, stance_xy: np.ndarray, stance_yaw: float = 0.0) -> Motion:
+    """A step motion moved from its own frame onto the world pose of its stance sole: turned
+    by ``stance_yaw`` (rad) about the vertical, then moved to ``stance_xy``.  Velocities are
+    in the base frame (unchanged); the ZMP and the wrenches' world-aligned axes turn."""
+    q = translate_state(robot, turn_state(robot, motion.q, stance_yaw), *stance_xy[:2])
+    c, s = np.cos(stance_yaw), np.sin(stance_yaw)
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    zmp = motion.zmp @ rotation.T
+    zmp[:, :2] += stance_xy[:2]
+    wrenches = np.concatenate([motion.wrenches[..., :3] @ rotation.T, motion.wrenches[..., 3:] @ rotation.T], axis=-1)
+    return dataclasses.replace(motion, q=q, zmp=zmp, wrenches=wrenches)
 
 
 def concatenate(steps: list[Motion]) -> Motion:
@@ -112,7 +118,8 @@ def solve_sequence(
     for spec, feet in tqdm(list(zip(specs, footsteps(robot, specs))), desc="M_opt steps", disable=not progress, leave=False):
         stance = OTHER_SIDE[spec.swing_side]
         motion = solve_step_motion(robot, spec, motions, settings)
-        placed.append(place(motion, feet["start"][stance][:2]))  # a step's frame: stance sole at the origin
+        # a step's frame: the stance sole at the origin, facing +x
+        placed.append(place(robot, motion, feet["start"][stance][:2], feet["yaw"]["start"][stance]))
     walk = concatenate(placed)
     walk.meta["solved_now"] = sorted(set(motions) - known)  # the rest came from ``motions``
     return walk

@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cocomopl.primitives import slot_algebra
 from cocomopl.primitives.kernels import time_kernel, weight_kernel
 
 jax.config.update("jax_enable_x64", True)
@@ -50,6 +51,11 @@ class BoundData:
     d2: np.ndarray
     r: np.ndarray
     mu: np.ndarray
+
+    @property
+    def groups(self) -> tuple[tuple[int, np.ndarray], ...]:
+        """The types by size, for :mod:`~cocomopl.primitives.slot_algebra`."""
+        return slot_algebra.size_groups(self.mask)
 
 
 def _chol_solve_identity(L):
@@ -101,21 +107,32 @@ def posterior(params: dict, data: BoundData, kernel: str) -> dict:
     B = weight_prior(params, data)
     mask = jnp.asarray(data.mask)
     v = params["v"]
-    w = params["chi"][..., None] + jnp.einsum("isgnj,isgj->isgn", jnp.linalg.cholesky(B), v)
-    c = jnp.exp(params["log_c"])[:, :, None, None, None]
-    L_PB = jnp.linalg.cholesky(jnp.eye(B.shape[-1]) + c * B)
-    PB_inv = _chol_solve_identity(L_PB)
-    omega = jnp.einsum("isgnj,isgjn->isgn", B, PB_inv)  # diag(Omega) = diag(B (I + cB)^-1)
-    kl_w = 0.5 * jnp.sum(
-        mask
-        * (
-            jnp.diagonal(PB_inv, axis1=-2, axis2=-1)
-            + v**2
-            - 1.0
-            + 2.0 * jnp.log(jnp.diagonal(L_PB, axis1=-2, axis2=-1))
-        )
-    )
+    whitened, omega, PB_inv_diagonal, L_PB_diagonal = _weight_diagonals(B, jnp.exp(params["log_c"]), v, data.groups)
+    w = params["chi"][..., None] + whitened
+    kl_w = 0.5 * jnp.sum(mask * (PB_inv_diagonal + v**2 - 1.0 + 2.0 * jnp.log(L_PB_diagonal)))
     return {"m": m, "tr_sigma": tr_sigma, "w": w, "omega": omega, "kl_mp": kl_mp, "kl_w": kl_w}
+
+
+def _weight_diagonals(B, c, v, groups):
+    """What the bound takes of the weight posteriors, per slot (I, S, G, N), each type's
+    block at its own size (:mod:`~cocomopl.primitives.slot_algebra`): ``chol(B) v``, the
+    diagonals of ``Omega = B (I + cB)^-1`` and of ``(I + cB)^-1``, and that of ``chol(I + cB)``.
+
+    An empty slot has ``B = 1`` there and no coupling, hence the values the loop starts from."""
+    shift = 1.0 + c[:, :, None, None]
+    whitened, omega = jnp.asarray(v), jnp.broadcast_to(1.0 / shift, v.shape)
+    P_inv_diagonal, L_P_diagonal = omega, jnp.broadcast_to(jnp.sqrt(shift), v.shape)
+    for n, idx in groups:
+        B_g = B[..., idx, :n, :n]
+        at = (..., idx, slice(None, n))
+        whitened = slot_algebra.put(whitened, at, jnp.einsum("isgnj,isgj->isgn", jnp.linalg.cholesky(B_g), v[at]), jnp)
+        L_P = jnp.linalg.cholesky(jnp.eye(n) + c[:, :, None, None, None] * B_g)
+        L_P_inv = jnp.linalg.inv(L_P)
+        P_inv = jnp.swapaxes(L_P_inv, -1, -2) @ L_P_inv
+        omega = slot_algebra.put(omega, at, jnp.einsum("isgnj,isgjn->isgn", B_g, P_inv), jnp)
+        P_inv_diagonal = slot_algebra.put(P_inv_diagonal, at, jnp.diagonal(P_inv, axis1=-2, axis2=-1), jnp)
+        L_P_diagonal = slot_algebra.put(L_P_diagonal, at, jnp.diagonal(L_P, axis1=-2, axis2=-1), jnp)
+    return whitened, omega, P_inv_diagonal, L_P_diagonal
 
 
 def free_energy(params: dict, data: BoundData, kernel: str):

@@ -28,7 +28,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, posterior, weight_prior
+from cocomopl.primitives import slot_algebra
+from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, weight_prior
 from cocomopl.primitives.kernels import time_kernel
 from cocomopl.primitives.optimise import (
     ETA_GRID,
@@ -44,13 +45,15 @@ GRID_POINTS = 61  # log-spaced candidate widths per time kernel in an M-step, 12
 WEIGHT_GRID_POINTS = 31  # and per weight kernel, 36 % apart, each with every nugget of ETA_GRID
 
 
-def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """``(I + scale K)^-1 rhs`` for kernels ``K`` (..., n, n), scales (...) and ``rhs`` (..., n, k).
+def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray, groups=None) -> np.ndarray:
+    """``(I + scale K)^-1 rhs`` for kernels ``K`` (..., n, n), scales (...) and ``rhs`` (..., n, k);
+    with ``groups``, ``K`` are weight kernels in the slot layout (:mod:`~cocomopl.primitives.slot_algebra`).
 
     Written without ``K^-1``: the kernels' nuggets can be as small as 1e-6, so their inverses
     are ill-conditioned where ``I + scale K`` is not.
     """
-    return np.linalg.solve(np.eye(K.shape[-1]) + scale[..., None, None] * K, rhs)
+    shifted = np.eye(K.shape[-1]) + scale[..., None, None] * K
+    return np.linalg.solve(shifted, rhs) if groups is None else slot_algebra.solve(shifted, rhs, groups)
 
 
 def e_step(q: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
@@ -62,23 +65,23 @@ def e_step(q: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
     m, Sig, w, Om = (q[k].copy() for k in ("m", "Sig", "w", "Om"))
     inv_s2 = 1.0 / q["sigma2"]
     d, c = np.empty(len(m)), np.empty(w.shape[:2])
-    fit = np.einsum("isgn,st->gnit", w, m)
+    rest = X - np.einsum("isgn,st->gnit", w, m)
     for s in range(len(m)):
-        fit -= np.einsum("ign,t->gnit", w[:, s], m[s])
-        rest = X - fit  # the data less every other primitive's share
+        rest += np.einsum("ign,t->gnit", w[:, s], m[s])  # the data less every other primitive's share
         second = w[:, s] ** 2 + np.diagonal(Om[:, s], axis1=-2, axis2=-1)  # E[W_is^2], (I, G, N)
         d[s] = np.einsum("ign,gn,i->", second, mask, inv_s2)
         r = np.einsum("ign,gn,i,gnit->t", w[:, s], mask, inv_s2, rest)
         Sig[s] = _shifted_solve(A[s], d[s], A[s])
         m[s] = _shifted_solve(A[s], d[s], (mu[s] + A[s] @ r)[:, None])[:, 0]
         c[:, s] = (m[s] @ m[s] + np.trace(Sig[s])) * inv_s2
-        y = np.einsum("gnit,t,i,gn->ign", rest, m[s], inv_s2, mask)
+        y = (rest @ m[s]).transpose(2, 0, 1) * inv_s2[:, None, None] * mask  # (I, G, N)
         Bs = B[:, s]  # (I, G, N, N)
         shift = np.broadcast_to(c[:, s, None], Bs.shape[:2])
-        Om[:, s] = _shifted_solve(Bs, shift, Bs)
+        Om[:, s] = _shifted_solve(Bs, shift, Bs, data.groups)
         prior_mean = np.broadcast_to(q["chi"][:, s, :, None], y.shape)
-        w[:, s] = _shifted_solve(Bs, shift, (prior_mean + np.einsum("ignk,igk->ign", Bs, y))[..., None])[..., 0]
-        fit += np.einsum("ign,t->gnit", w[:, s], m[s])
+        rhs = (prior_mean + np.einsum("ignk,igk->ign", Bs, y))[..., None]
+        w[:, s] = _shifted_solve(Bs, shift, rhs, data.groups)[..., 0]
+        rest -= np.einsum("ign,t->gnit", w[:, s], m[s])
     return {**q, "m": m, "Sig": Sig, "w": w, "Om": Om, "d": d, "c": c}
 
 
@@ -90,10 +93,10 @@ def means_and_noise(q: dict, B: np.ndarray, data: BoundData) -> dict:
     datum of signal i, ``E ||x - sum_s W_s MP_s||^2 / (K T)``.
     """
     mask = data.mask
-    L = np.linalg.cholesky(B)
+    L = slot_algebra.cholesky(B, data.groups)
     ones = np.broadcast_to(mask, B.shape[:-1])
-    a = np.linalg.solve(L, ones[..., None])[..., 0]
-    b = np.linalg.solve(L, (q["w"] * mask)[..., None])[..., 0]
+    a = slot_algebra.solve(L, ones[..., None], data.groups)[..., 0]
+    b = slot_algebra.solve(L, (q["w"] * mask)[..., None], data.groups)[..., 0]
     chi = (a * b).sum(-1) / (a * a).sum(-1)
     m, w = q["m"], q["w"]
     m2 = (m**2).sum(axis=1) + np.trace(q["Sig"], axis1=1, axis2=2)  # E||MP_s||^2
@@ -112,7 +115,7 @@ def _inverse_and_log_det(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.swapaxes(L_inv, -1, -2) @ L_inv, 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(-1)
 
 
-def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log_alpha_limits) -> tuple:
+def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log_alpha_limits, entries=slice(None)) -> tuple:
     """Per kernel, the candidate shape (width, and nugget for the weight kernels) and the log
     amplitude that minimise its KL terms, the posterior held.
 
@@ -120,21 +123,22 @@ def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log
     ``M = S + d d'``, its KL terms are ``(n log alpha + tr(K^-1 M) / alpha + log|K|) / 2``, so
     for each shape the amplitude has a closed form, ``alpha = tr(K^-1 M) / n``.
 
-    ``grid`` is (shape parameters, each (C,); unit-amplitude inverses (C, *core);
-    log-determinants (C,)), shared by every kernel; ``current`` the same for each kernel's
-    present shape, with (...) for (C,); ``moment`` is (..., *core).  Keeping the present
-    shape among the candidates means the KL terms cannot rise.
+    ``grid`` is (shape parameters, each (C,); unit-amplitude inverses (C, E) on the
+    ``entries`` of the flattened core; log-determinants (C,)), shared by every kernel;
+    ``current`` the same for each kernel's present shape, with (...) for (C,) and whole
+    cores; ``moment`` is (..., *core), zero off the ``entries``.  Keeping the present shape
+    among the candidates means the KL terms cannot rise.
     """
     (grid_shapes, grid_inverse, grid_log_det), (shapes, inverse, log_det) = grid, current
-    batch = inverse.shape[: moment.ndim - grid_inverse.ndim + 1]
+    batch = shapes[0].shape
 
     def candidates(on_grid: np.ndarray, now: np.ndarray) -> np.ndarray:
         """(C + 1, *batch): the grid's values for every kernel, then each kernel's present one."""
         return np.concatenate([np.broadcast_to(on_grid.reshape(-1, *[1] * len(batch)), (len(on_grid), *batch)), now[None]])
 
-    flat = moment.reshape(int(np.prod(batch)), -1)
-    traces = np.concatenate([(grid_inverse.reshape(len(grid_inverse), -1) @ flat.T).reshape(-1, *batch),
-                             (inverse.reshape(flat.shape) * flat).sum(-1).reshape(1, *batch)])
+    flat = moment.reshape(int(np.prod(batch)), -1)[:, entries]
+    traces = np.concatenate([(grid_inverse @ flat.T).reshape(-1, *batch),
+                             (inverse.reshape(len(flat), -1)[:, entries] * flat).sum(-1).reshape(1, *batch)])
     low, high = log_alpha_limits
     log_alpha = np.clip(np.log(np.maximum(traces, 1e-300) / n), low, high)
     value = 0.5 * (n * log_alpha + traces * np.exp(-log_alpha) + candidates(grid_log_det, log_det))
@@ -153,34 +157,46 @@ def _weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tupl
     """Inverses (..., G, N, N) and log-determinants summed over the types (...) of the
     unit-amplitude weight kernels of widths ``gamma`` and nuggets ``eta`` (...), an identity
     on empty slots."""
-    inverse, log_det = _inverse_and_log_det(unit_weight_kernels(data.d2, data.mask, gamma, eta))
-    return inverse, log_det.sum(-1)
+    L, inverse = slot_algebra.cholesky_and_inverse(unit_weight_kernels(data.d2, data.mask, gamma, eta), data.groups)
+    return inverse, 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(axis=(-1, -2))
 
 
-def m_step(q: dict, hyper: dict, data: BoundData, kernel: str) -> dict:
-    """The kernel hyperparameters at their best, the posteriors held: per kernel the width
-    (and for the weight kernels the nugget) from a log-spaced grid or its current value (so
-    the bound cannot fall), and the amplitude in closed form (:func:`_best_kernels`)."""
-    # time kernels, per primitive
+def kernel_grids(data: BoundData, kernel: str) -> dict:
+    """The M-step's candidate kernels, the same in every round: the log-spaced widths (and
+    nuggets) of the time and weight kernels with their inverses and log-determinants, the
+    weight kernels' inverses on the entries of their types' own steps (``weight_entries``)."""
     ells = np.geomspace(float(data.r[0, 1]), 10.0, GRID_POINTS)
+    time_inverse, time_log_det = _time_kernels(kernel, data.r, ells)
+    gammas, etas = (g.ravel() for g in np.meshgrid(np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), WEIGHT_GRID_POINTS), ETA_GRID))
+    weight_inverse, weight_log_det = _weight_kernels(data, gammas, etas)
+    entries = np.flatnonzero(data.mask[:, :, None] * data.mask[:, None, :])
+    return {"time": ((ells,), time_inverse.reshape(len(ells), -1), time_log_det),
+            "weight": ((gammas, etas), weight_inverse.reshape(len(gammas), -1)[:, entries], weight_log_det),
+            "weight_entries": entries}
+
+
+def m_step(q: dict, hyper: dict, data: BoundData, kernel: str, grids: dict | None = None) -> dict:
+    """The kernel hyperparameters at their best, the posteriors held: per kernel the width
+    (and for the weight kernels the nugget) from a log-spaced grid (:func:`kernel_grids`,
+    computed here unless given) or its current value (so the bound cannot fall), and the
+    amplitude in closed form (:func:`_best_kernels`)."""
+    grids = kernel_grids(data, kernel) if grids is None else grids
+    # time kernels, per primitive
     ell_now = np.exp(hyper["log_ell_t"])
     deviation = q["m"] - data.mu
     moment = q["Sig"] + deviation[:, :, None] * deviation[:, None, :]  # (S, T, T)
     (ell,), log_alpha_t = _best_kernels(
-        ((ells,), *_time_kernels(kernel, data.r, ells)),
-        ((ell_now,), *_time_kernels(kernel, data.r, ell_now)),
-        moment, data.r.shape[0], LOG_BOUNDS["log_alpha_t"],
+        grids["time"], ((ell_now,), *_time_kernels(kernel, data.r, ell_now)), moment, data.r.shape[0],
+        LOG_BOUNDS["log_alpha_t"],
     )
     # weight kernels, per (signal, primitive), over all step types at once
     mask = data.mask
     deviation = (q["w"] - q["chi"][..., None]) * mask
     moment = q["Om"] * (mask[:, :, None] * mask[:, None, :]) + deviation[..., :, None] * deviation[..., None, :]
-    gammas, etas = (g.ravel() for g in np.meshgrid(np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), WEIGHT_GRID_POINTS), ETA_GRID))
     gamma_now, eta_now = np.exp(hyper["log_gamma_w"]), np.exp(hyper["log_eta_w"])
     (gamma, eta), log_alpha_w = _best_kernels(
-        ((gammas, etas), *_weight_kernels(data, gammas, etas)),
-        ((gamma_now, eta_now), *_weight_kernels(data, gamma_now, eta_now)),
-        moment, mask.sum(), LOG_BOUNDS["log_alpha_w"],
+        grids["weight"], ((gamma_now, eta_now), *_weight_kernels(data, gamma_now, eta_now)), moment, mask.sum(),
+        LOG_BOUNDS["log_alpha_w"], grids["weight_entries"],
     )
     return {"log_alpha_t": log_alpha_t, "log_ell_t": np.log(ell), "log_alpha_w": log_alpha_w,
             "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)}
@@ -191,7 +207,8 @@ def as_parameters(q: dict, hyper: dict, A: np.ndarray, B: np.ndarray, data: Boun
     parametrisation: whitened means and the precisions ``d``, ``c``."""
     mask = data.mask
     u = np.linalg.solve(np.linalg.cholesky(A), (q["m"] - data.mu)[..., None])[..., 0]
-    v = np.linalg.solve(np.linalg.cholesky(B), ((q["w"] - q["chi"][..., None]) * mask)[..., None])[..., 0] * mask
+    L_B = slot_algebra.cholesky(B, data.groups)
+    v = slot_algebra.solve(L_B, ((q["w"] - q["chi"][..., None]) * mask)[..., None], data.groups)[..., 0] * mask
     return {**hyper, "u": u, "v": v, "chi": q["chi"], "log_d": np.log(q["d"]), "log_c": np.log(q["c"]),
             "log_sigma": 0.5 * np.log(q["sigma2"])}
 
@@ -216,13 +233,19 @@ def maximise_bound_em(
     """
     params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
     hyper = {k: np.asarray(params[k], dtype=float) for k in HYPERPARAMETERS}
-    q = {**_posterior_start(params, data, kernel), "chi": params["chi"], "sigma2": np.exp(2.0 * params["log_sigma"])}
+    prior_of = jax.jit(lambda h: (mp_prior(h, data, kernel), weight_prior(h, data)))
+
+    def priors(hyper: dict) -> tuple[np.ndarray, np.ndarray]:
+        return tuple(np.asarray(x) for x in prior_of({k: jnp.asarray(hyper[k]) for k in HYPERPARAMETERS}))
+
+    q = {**_posterior_start(params, *priors(hyper), data), "chi": params["chi"], "sigma2": np.exp(2.0 * params["log_sigma"])}
     bound = jax.jit(lambda p: free_energy(p, data, kernel))
+    grids = kernel_grids(data, kernel)
     bounds = []
     for _ in range(max(max_rounds, 1)):
         if bounds:
-            hyper = m_step(q, hyper, data, kernel)
-        A, B = np.asarray(mp_prior(hyper, data, kernel)), np.asarray(weight_prior(hyper, data))
+            hyper = m_step(q, hyper, data, kernel, grids)
+        A, B = priors(hyper)
         q = means_and_noise(e_step(q, A, B, data), B, data)
         params = as_parameters(q, hyper, A, B, data)
         bounds.append(float(bound({k: jnp.asarray(v) for k, v in params.items()})))
@@ -240,16 +263,13 @@ def maximise_bound_em(
     }
 
 
-def _posterior_start(params: dict, data: BoundData, kernel: str) -> dict:
-    """The PCA start as explicit posteriors: means and covariances."""
-    A = np.asarray(mp_prior(params, data, kernel))
-    B = np.asarray(weight_prior(params, data))
-    q = posterior({k: jnp.asarray(v) for k, v in params.items()}, data, kernel)
+def _posterior_start(params: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
+    """The PCA start as explicit posteriors: means and covariances, under the priors ``A`` and ``B``."""
     d = np.exp(params["log_d"])
     c = np.exp(params["log_c"])
     return {
-        "m": np.asarray(q["m"]),
+        "m": data.mu + np.einsum("stu,su->st", np.linalg.cholesky(A), params["u"]),
         "Sig": _shifted_solve(A, d, A),
-        "w": np.asarray(q["w"]),
-        "Om": _shifted_solve(B, np.broadcast_to(c[:, :, None], B.shape[:3]), B),
+        "w": params["chi"][..., None] + np.einsum("isgnj,isgj->isgn", slot_algebra.cholesky(B, data.groups), params["v"]),
+        "Om": _shifted_solve(B, np.broadcast_to(c[:, :, None], B.shape[:3]), B, data.groups),
     }

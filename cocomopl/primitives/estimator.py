@@ -120,7 +120,12 @@ class PredictedStep:
         self.distance = distance
         self.in_support = in_support
         self.start = start
-        self.values = np.concatenate(self._chained_means())
+
+    @functools.cached_property
+    def values(self) -> np.ndarray:
+        """Posterior mean of the signals, (T, I); computed when first read (a walk's steps
+        are predicted unconditioned, then conditioned in order)."""
+        return np.concatenate(self._chained_means())
 
     def _chained_means(self) -> list[np.ndarray]:
         """Each part's mean, conditioned on the step's start (the first part) or on the end
@@ -405,19 +410,22 @@ class MovementPrimitives:
     def predict_many(self, specs: list[StepSpec]) -> list[PredictedStep]:
         """:meth:`predict` of every step of ``specs``, unconditioned, computed together for
         the steps of each learned type (a walk's steps then cost a few array operations
-        together, not each)."""
+        together, not each), and once for steps that repeat (a steady gait's): the same
+        (unmodified) :class:`PredictedStep` is returned for each."""
         self._check_fitted()
-        trajectories = [self._trajectory_types(step_type(spec)) for spec in specs]
-        for spec, types in zip(specs, trajectories):
+        unique = list(dict.fromkeys(specs))
+        trajectories = [self._trajectory_types(step_type(spec)) for spec in unique]
+        for spec, types in zip(unique, trajectories):
             if not types:
                 raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
         predicted = {}  # (step index, trajectory type) -> PredictedStep
         for type_ in {t for types in trajectories for t in types}:
             rows = [k for k, types in enumerate(trajectories) if type_ in types]
-            for k, step in zip(rows, self._predict_type(type_, [specs[k] for k in rows])):
+            for k, step in zip(rows, self._predict_type(type_, [unique[k] for k in rows])):
                 predicted[k, type_] = step
-        return [predicted[k, types[0]] if len(types) == 1 else PredictedStep.joined(spec, [predicted[k, t] for t in types])
-                for k, (spec, types) in enumerate(zip(specs, trajectories))]
+        steps = {spec: predicted[k, types[0]] if len(types) == 1 else PredictedStep.joined(spec, [predicted[k, t] for t in types])
+                 for k, (spec, types) in enumerate(zip(unique, trajectories))}
+        return [steps[spec] for spec in specs]
 
     def _trajectory_types(self, type_: str) -> list[str]:
         """The learned trajectory types a step type is predicted from: itself, or its parts
@@ -440,9 +448,9 @@ class MovementPrimitives:
         w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
         mean = (w @ self.state_["m"]).swapaxes(1, 2)
         gain, cross, observed = _condition(w, var, self._primitive_moments(), c["conditioned"])
-        k = c["dur_alpha"] * np.exp(-c["dur_gamma"] * d2[:, None, :])  # (steps, P, n)
-        durations = np.exp(c["dur_mean"] + (k * c["dur_beta"]).sum(axis=-1))
-        log_var = c["dur_alpha"][:, 0] - np.einsum("qpn,pnm,qpm->qp", k, c["dur_K_inv"], k)
+        k = c["dur_alpha"][:, None] * np.exp(-c["dur_gamma"][:, None] * d2)  # (P, steps, n)
+        durations = np.exp(c["dur_mean"] + (k * c["dur_beta"][:, None]).sum(axis=-1).T)
+        log_var = c["dur_alpha"][:, 0] - ((k @ c["dur_K_inv"]) * k).sum(axis=-1).T
         duration_std = durations * np.sqrt(np.maximum(log_var, 0.0))
         distance = np.sqrt(d2.min(axis=1))
         primitives = (self.state_["m"], self.state_["m_var"])
@@ -477,7 +485,7 @@ class MovementPrimitives:
 
 def _weight_solves(C: np.ndarray, lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, beta: np.ndarray) -> dict:
     """The weight GPs' solves ``C_k`` (K, n, n) and ``beta_k`` (K, n) of one type, laid out so
-    that predicting the K weights of several steps costs a few array operations.
+    that predicting the K weights of several steps costs a few matrix products.
 
     ``C_k = (B_k + I / c_k)^-1`` with the prior ``B_k = alpha_k (E(gamma_k) + eta_k I)`` and
     ``E(gamma) = exp(-gamma D)`` over the training inputs' squared distances ``D``
@@ -488,16 +496,26 @@ def _weight_solves(C: np.ndarray, lengths: np.ndarray, alpha: np.ndarray, gamma:
     model): one eigenbasis each.  Read back from ``C``, the form reproduces it to a relative
     4e-9 on the bundled models.
 
-    Returns ``basis`` (G, n, n) and ``unique_gamma`` (G,), ``gamma_of`` (K,) the basis of each
-    weight, ``nu`` (K,), ``beta`` (K, n) and ``inverse_spectrum`` (K, n), ``1 / (lambda + nu_k)``.
+    Returns ``basis`` (G, n, n), ``unique_gamma`` (G,), ``nu`` (K,) and ``beta`` (K, n), and
+    the weights grouped by their ``gamma`` for batched products: ``mean_blocks`` ``alpha_k
+    beta_k`` and ``spectral_blocks`` ``1 / (lambda_j + nu_k)``, (G, n, M) each for groups of
+    at most M weights (zero-padded), and ``block_index`` (K,), each weight's column in the
+    flattened (G M) result.
     """
     D = ((lengths[:, None] - lengths[None]) ** 2).sum(axis=-1)
     unique_gamma, gamma_of = np.unique(gamma, return_inverse=True)
     eigenvalues, basis = np.linalg.eigh(np.exp(-unique_gamma[:, None, None] * D))
     # C_k^-1 = alpha_k (E + nu_k I), and E's diagonal is 1
     nu = np.diagonal(np.linalg.inv(C), axis1=1, axis2=2).mean(axis=1) / alpha - 1.0
-    return {"basis": basis, "unique_gamma": unique_gamma, "gamma_of": gamma_of, "nu": nu, "beta": beta,
-            "inverse_spectrum": 1.0 / (eigenvalues[gamma_of] + nu[:, None])}
+    G, n, M = len(unique_gamma), len(lengths), np.bincount(gamma_of).max()
+    rank = np.empty(len(alpha), dtype=int)  # a weight's place in its group
+    for g in range(G):
+        rank[gamma_of == g] = np.arange(np.count_nonzero(gamma_of == g))
+    mean_blocks, spectral_blocks = np.zeros((G, n, M)), np.zeros((G, n, M))
+    mean_blocks[gamma_of, :, rank] = alpha[:, None] * beta
+    spectral_blocks[gamma_of, :, rank] = 1.0 / (eigenvalues[gamma_of] + nu[:, None])
+    return {"basis": basis, "unique_gamma": unique_gamma, "nu": nu, "beta": beta, "mean_blocks": mean_blocks,
+            "spectral_blocks": spectral_blocks, "block_index": gamma_of * M + rank}
 
 
 def _weight_posterior(c: dict, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -508,19 +526,25 @@ def _weight_posterior(c: dict, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     nugget is a step's own variation (kriging's nugget effect): it is shared with a training
     step of the same lengths, which the prediction then reproduces, and with no other.  The
     variance's quadratic form ``b_k^T C_k b_k`` is taken in the eigenbasis of
-    :func:`_weight_solves`: ``sum_j (u_j^T b_k)^2 / (alpha_k (lambda_j + nu_k))``.
+    :func:`_weight_solves`: ``sum_j (u_j^T b_k)^2 / (alpha_k (lambda_j + nu_k))``, with
+    ``u_j^T b_k = alpha_k p_j + nugget_k q_j``, ``p = U^T E(z)`` and ``q = U^T [d2 = 0]``.
     """
-    alpha, nugget, g = c["alpha_w"], c["nugget"], c["gamma_of"]
-    smooth = np.exp(-c["unique_gamma"][:, None] * d2[:, None, :])  # E(z), (steps, G, n)
-    projected = np.einsum("pgn,gnj->pgj", smooth, c["basis"])  # U^T E(z)
-    mean = c["chi"] + alpha * np.einsum("kn,pkn->pk", c["beta"], smooth[:, g])
+    alpha, nugget = c["alpha_w"], c["nugget"]
+    smooth = np.exp(-c["unique_gamma"][:, None, None] * d2)  # E(z), (G, steps, n)
+    p = smooth @ c["basis"]
+
+    def per_weight(x: np.ndarray, blocks: str) -> np.ndarray:
+        """(G, rows, n) vectors, each group's multiplied by its weights' block: (rows, K)."""
+        return (x @ c[blocks]).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, c["block_index"]]
+
+    mean = c["chi"] + per_weight(smooth, "mean_blocks")
     same = (d2 < SAME_LENGTHS_M2).astype(float)
     if not same.any():
-        return mean, alpha - alpha * np.einsum("kj,pkj->pk", c["inverse_spectrum"], projected[:, g] ** 2)
-    # at a training step's lengths: U^T b_k = alpha_k U^T E(z) + nugget_k U^T [d2 = 0]
-    projected = alpha[:, None] * projected[:, g] + nugget[:, None] * np.einsum("pn,gnj->pgj", same, c["basis"])[:, g]
+        return mean, alpha - alpha * per_weight(p**2, "spectral_blocks")
+    q = same @ c["basis"]
     mean += nugget * (same @ c["beta"].T)
-    return mean, alpha - np.einsum("kj,pkj->pk", c["inverse_spectrum"], projected**2) / alpha
+    pp, pq, qq = per_weight(np.concatenate([p**2, p * q, q**2], axis=1), "spectral_blocks").reshape(3, len(d2), -1)
+    return mean, alpha - alpha * pp - 2.0 * nugget * pq - nugget**2 / alpha * qq
 
 
 def _show_iteration(bar: tqdm, bound: float) -> None:

@@ -16,6 +16,7 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 from scipy.optimize import minimize
 
+from cocomopl.primitives import slot_algebra
 from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, posterior, weight_prior
 
 # (lower, upper) for the log-parameters; the rest are unbounded.  They keep the kernels
@@ -67,8 +68,8 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
         "log_sigma": np.log(sigma),
     }
     data = bound_data(X_slots, mask, d2, tau, mu)
-    L_B = np.linalg.cholesky(np.asarray(weight_prior(params, data)))
-    params["v"] = np.linalg.solve(L_B, ((w - chi[..., None]) * mask)[..., None])[..., 0] * mask
+    L_B = slot_algebra.cholesky(np.asarray(weight_prior(params, data)), data.groups)
+    params["v"] = slot_algebra.solve(L_B, ((w - chi[..., None]) * mask)[..., None], data.groups)[..., 0] * mask
     return params, data
 
 
@@ -90,11 +91,13 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     likelihood).  Starting L-BFGS from widths the data support matters: with a too-wide
     kernel the whitened weights blow up and the KL term swamps the bound.
     """
-    n = mask.sum()
+    n, groups = mask.sum(), slot_algebra.size_groups(mask)
+    I, S, G, N = deviation.shape
+    rhs = (deviation * mask).reshape(I * S, G, N).transpose(1, 2, 0)  # (G, N, I S): one kernel for all (i, s)
     best = None
     for gamma, eta in itertools.product(GAMMA_GRID, ETA_GRID):
-        L = np.linalg.cholesky(unit_weight_kernels(d2, mask, gamma, eta))  # (G, N, N), shared by all (i, s)
-        z = np.linalg.solve(L, (deviation * mask)[..., None])[..., 0]  # (I, S, G, N)
+        L = slot_algebra.cholesky(unit_weight_kernels(d2, mask, gamma, eta), groups)  # (G, N, N)
+        z = slot_algebra.solve(L, rhs, groups).transpose(2, 0, 1).reshape(I, S, G, N)
         alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)
         log_det = 2 * (np.log(np.diagonal(L, axis1=-2, axis2=-1)) * mask).sum()
         score = -0.5 * (n * np.log(alpha) + log_det)
@@ -171,10 +174,10 @@ def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
     d = np.exp(params["log_d"])[:, None, None]
     m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
     B = np.asarray(weight_prior(params, data))
-    L_B = np.linalg.cholesky(B)
-    beta = np.linalg.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None])[..., 0] * data.mask
+    L_B = slot_algebra.cholesky(B, data.groups)
+    beta = slot_algebra.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None], data.groups)[..., 0] * data.mask
     c = np.exp(params["log_c"])[:, :, None, None, None]
-    C = np.linalg.inv(B + np.eye(B.shape[-1]) / c)
+    _, C = slot_algebra.cholesky_and_inverse(B + np.eye(B.shape[-1]) / c, data.groups)
     both = data.mask[:, :, None] * data.mask[:, None, :]
     return {
         "m": q["m"],

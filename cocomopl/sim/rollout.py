@@ -68,13 +68,26 @@ def low_passed(samples: np.ndarray, dt: float, cutoff: float) -> np.ndarray:
     return sosfiltfilt(sos, samples, axis=0, padtype="constant", padlen=min(len(samples) - 1, int(1.0 / dt)))
 
 
-def _reference_joints(motion: Motion, dt: float, cutoff: float):
-    """Joint angles of ``motion`` at any time: linear between its knots, sampled every ``dt``,
-    low-passed at ``cutoff`` Hz (0: not filtered), held at the ends."""
+def _reference_joints(motion: Motion, dt: float, cutoff: float, feedforward: np.ndarray | None = None):
+    """Joint commands of ``motion`` at any time: its joint angles linear between its knots,
+    sampled every ``dt``, low-passed at ``cutoff`` Hz (0: not filtered), held at the ends.
+
+    With ``feedforward``, the servos' ``(kp, kv)`` (2, joints), each command is offset by
+    ``(tau + kv qdot) / kp`` for the plan's torque ``tau`` and joint velocity ``qdot``: a
+    servo ``kp (command - q) - kv qdot`` then delivers the plan's torque where it follows
+    the plan, instead of sagging under the load and lagging behind the motion.
+    """
     keep = motion.kept_samples()
-    t, q = motion.t[keep], motion.q[keep, 7:]
+    t = motion.t[keep]
     grid = np.arange(t[0], t[-1] + dt / 2, dt)
-    samples = low_passed(np.column_stack([np.interp(grid, t, q[:, j]) for j in range(q.shape[1])]), dt, cutoff)
+
+    def sampled(values: np.ndarray) -> np.ndarray:
+        return low_passed(np.column_stack([np.interp(grid, t, x) for x in values.T]), dt, cutoff)
+
+    samples = sampled(motion.q[keep, 7:])
+    if feedforward is not None:
+        kp, kv = feedforward
+        samples = samples + (sampled(motion.tau[keep]) + kv * np.gradient(samples, dt, axis=0)) / kp
 
     def at(time: float) -> np.ndarray:
         return samples[int(np.clip(round((time - t[0]) / dt), 0, len(grid) - 1))]
@@ -107,6 +120,7 @@ def simulate(
     progress: bool = False,
     reference_cutoff_hz: float = REFERENCE_CUTOFF_HZ,
     gains: StabilizerGains | None = None,
+    feedforward: bool = False,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -123,6 +137,9 @@ def simulate(
         0 plays the linear interpolation of the knots as it is (:func:`check_reference_cutoff`)
     gains : the stabilizer's gains; default those tuned for the generator that made
         ``motion`` (:func:`~cocomopl.sim.stabilizer.gains_for`)
+    feedforward : offset the commands by the plan's torques and the servos' damping of the
+        plan's velocity (:func:`_reference_joints`), so that the servos track the plan
+        rather than sag and lag
 
     Returns
     -------
@@ -131,7 +148,8 @@ def simulate(
     check_reference_cutoff(reference_cutoff_hz)
     model = sim.mj
     data = mujoco.MjData(model)
-    reference = _reference_joints(motion, model.opt.timestep, reference_cutoff_hz)
+    servo = np.stack([model.actuator_gainprm[:, 0], -model.actuator_biasprm[:, 2]]) if feedforward else None
+    reference = _reference_joints(motion, model.opt.timestep, reference_cutoff_hz, servo)
     t0 = float(motion.t[0])
     _placed_on_floor(sim, data, motion.q[0])
     gains = (gains or gains_for(motion)) if stabilizer else None
@@ -159,12 +177,12 @@ def simulate(
             fell, fall_time = True, max(time - t0, 0.0)
             break
         mujoco.mj_step(model, data)
-    measured = _measured_motion(sim, motion, rows, gains, reference_cutoff_hz, fell, fall_time)
+    measured = _measured_motion(sim, motion, rows, gains, reference_cutoff_hz, feedforward, fell, fall_time)
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
 def _measured_motion(sim: SimModel, reference: Motion, rows: dict, gains: StabilizerGains | None, reference_cutoff_hz: float,
-                     fell: bool, fall_time) -> Motion:
+                     feedforward: bool, fell: bool, fall_time) -> Motion:
     t = np.array(rows["t"])
     q = np.array(rows["q"])
     wrenches = np.array(rows["wrenches"])
@@ -196,6 +214,7 @@ def _measured_motion(sim: SimModel, reference: Motion, rows: dict, gains: Stabil
             "stabilizer": gains is not None,
             "stabilizer_gains": None if gains is None else gains.as_dict(),
             "reference_cutoff_hz": reference_cutoff_hz,
+            "feedforward": feedforward,
             "fell": fell,
             "fall_time_s": fall_time,
             "timestep_s": float(sim.mj.opt.timestep),
