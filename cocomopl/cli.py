@@ -222,7 +222,7 @@ def cmd_dataset_generate(args) -> int:
 
         if args.extra_transitions_mm is not None:
             raise Error("--extra-transitions-mm joins straight lengths; a gait grid has its own transitions")
-        lengths, extra = gait_footsteps(Robot(args.robot), *args.gaits)
+        lengths, extra = gait_footsteps(Robot(args.robot), args.gaits)
     _note_replacing(args.out, inputs=[args.robot])
     summary = generate_dataset(
         args.out, lengths, extra, args.robot, args.dt, args.max_iterations, args.load_transfer_weight,
@@ -570,11 +570,12 @@ def _dataset_parsers(sub) -> None:
     gen = dataset.add_parser("generate", help="solve the step OCPs and write the training dataset (HDF5)")
     lengths_mm = ",".join(f"{1000 * x:g}" for x in DEFAULT_LENGTHS_M)
     design = gen.add_mutually_exclusive_group()
-    design.add_argument("--gaits", type=_gait_grid, nargs="?", const=DEFAULT_GAIT_GRID_TEXT,
+    design.add_argument("--gaits", type=_gait_grid, nargs="?", const=DEFAULT_GAIT_GRID_TEXT, action="append",
                         metavar="LENGTHS_MM/WIDTHS_MM/TURNS_DEG",
                         help="an omnidirectional set: the steady gaits of a grid of footstep lengths and widths (mm) "
-                        f"and turns (deg); alone, the default grid {DEFAULT_GAIT_GRID_TEXT}; a grid that starts with a "
-                        "minus sign is given as --gaits=-150,... (docs/method.md#omnidirectional-training-set)")
+                        f"and turns (deg); alone, the default grid {DEFAULT_GAIT_GRID_TEXT}; given again, the gaits of "
+                        "every grid; a grid that starts with a minus sign is given as --gaits=-150,... "
+                        "(docs/method.md#omnidirectional-training-set)")
     design.add_argument("--lengths-mm", type=_training_lengths_mm, default=DEFAULT_LENGTHS_M, metavar="MM,MM,...",
                         help=f"training step lengths in millimetres, straight ahead (default: {lengths_mm})")
     extra = ",".join(f"{1000 * a:g}-{1000 * b:g}" for a, b in DEFAULT_EXTRA_TRANSITIONS_M)

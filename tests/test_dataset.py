@@ -44,6 +44,39 @@ def test_extra_transitions_parse_and_deduplicate():
     assert len(training_specs(lengths, parse_transitions_mm("150-200", lengths))) == 3 * 3 + 2 * 2  # already neighbours
 
 
+def test_gait_grids_give_each_gaits_two_footsteps_and_their_transitions_once(robot):
+    from cocomopl.dataset.plan import DEFAULT_GAIT_GRID_TEXT, gait_footsteps, parse_gait_grid
+    from cocomopl.motion import Footstep
+
+    grid = parse_gait_grid("300,150/100/0,12")
+    assert grid == ((0.15, 0.3), (0.1,), (0.0, pytest.approx(np.radians(12))))
+    footsteps, pairs = gait_footsteps(robot, [grid])
+    # a gait leads with (length, width, turn) and trails with (length, 0, -turn)
+    assert Footstep(0.3, 0.1, grid[2][1]) in footsteps and Footstep(0.3, 0.0, -grid[2][1]) in footsteps
+    assert len(footsteps) == 8 and len(pairs) == 4
+    # a second grid adds its gaits; a gait in both counts once
+    more, more_pairs = gait_footsteps(robot, [grid, parse_gait_grid("400,150/100,0/0")])
+    assert set(footsteps) < set(more) and len(more) == 8 + 2 and len(more_pairs) == 4 + 1  # (400, 0, 0), (400, 100, 0)
+    assert gait_footsteps(robot, [parse_gait_grid(DEFAULT_GAIT_GRID_TEXT)])[0][0].length == -0.15
+
+
+@pytest.mark.parametrize("text, message", [
+    ("150/100", "LENGTHS_MM/WIDTHS_MM/TURNS_DEG"), ("150,150/0/0", "repeat"), ("150/x/0", "not a number"),
+])
+def test_bad_gait_grids_are_refused(text, message):
+    from cocomopl.dataset.plan import parse_gait_grid
+
+    with pytest.raises(Error, match=message):
+        parse_gait_grid(text)
+
+
+def test_a_gait_whose_feet_collide_is_refused(robot):
+    from cocomopl.dataset.plan import gait_footsteps, parse_gait_grid
+
+    with pytest.raises(Error, match=r"gait \(0 mm, 0 mm, 25 deg\).*at least 10 mm"):
+        gait_footsteps(robot, [parse_gait_grid("150/100/0"), parse_gait_grid("0/0/25")])
+
+
 @pytest.mark.parametrize(
     "text, message",
     [("150-300", "300 mm is not one of the training lengths"), ("150", "joined by '-'"),

@@ -36,11 +36,12 @@ DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
 DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300/0,100/0,12"
 
 
-def gait_footsteps(robot, lengths, widths, turns) -> tuple[tuple[Footstep, ...], tuple[tuple[Footstep, Footstep], ...]]:
-    """Footsteps and transitions for the steady gaits (length, width, turn) of a grid, as the
-    footstep planner walks them (:mod:`cocomopl.planning.goal`): the leading foot steps
-    (length, width, turn), the trailing one (length, 0, -turn), and each gait's transitions
-    join the two.
+def gait_footsteps(robot, grids) -> tuple[tuple[Footstep, ...], tuple[tuple[Footstep, Footstep], ...]]:
+    """Footsteps and transitions for the steady gaits (length, width, turn) of one or more
+    grids (each ``(lengths, widths, turns)``, :func:`parse_gait_grid`; the gaits are their
+    union), as the footstep planner walks them (:mod:`cocomopl.planning.goal`): the leading
+    foot steps (length, width, turn), the trailing one (length, 0, -turn), and each gait's
+    transitions join the two.
 
     Raises
     ------
@@ -49,7 +50,8 @@ def gait_footsteps(robot, lengths, widths, turns) -> tuple[tuple[Footstep, ...],
         (:func:`~cocomopl.gait.check_footstep`).
     """
     footsteps, pairs = set(), set()
-    for length, width, turn in itertools.product(lengths, widths, turns):
+    gaits = dict.fromkeys(gait for grid in grids for gait in itertools.product(*grid))
+    for length, width, turn in gaits:
         lead, trail = steady_gait(length, width, turn)
         for side, footstep in (("left", lead), ("right", trail)):
             try:
