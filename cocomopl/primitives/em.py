@@ -36,7 +36,6 @@ from cocomopl.primitives.optimise import (
     LOG_BOUNDS,
     _prediction_arrays,
     initial_parameters,
-    unit_weight_kernels,
 )
 
 TOLERANCE = 1.0  # nats: a round that raises the bound by less ends the fit
@@ -61,27 +60,29 @@ def e_step(q: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
     to its optimum given the rest.  ``q`` also gets the precisions the posteriors were
     computed with, ``d`` (S,) and ``c`` (I, S): ``Sigma_s = (A_s^-1 + d_s I)^-1`` and
     ``Omega_is = (B_is^-1 + c_is I)^-1``."""
-    X, mask, mu = data.X, data.mask, data.mu
+    mask, mu = data.mask, data.mu
     m, Sig, w, Om = (q[k].copy() for k in ("m", "Sig", "w", "Om"))
     inv_s2 = 1.0 / q["sigma2"]
     d, c = np.empty(len(m)), np.empty(w.shape[:2])
-    rest = X - np.einsum("isgn,st->gnit", w, m)
+    steps = np.nonzero(mask)  # the residuals are taken over the steps alone, not the empty slots
+    rest = data.X[steps] - np.einsum("isk,st->kit", w[:, :, *steps], m)  # (K, I, T)
     for s in range(len(m)):
-        rest += np.einsum("ign,t->gnit", w[:, s], m[s])  # the data less every other primitive's share
-        second = w[:, s] ** 2 + np.diagonal(Om[:, s], axis1=-2, axis2=-1)  # E[W_is^2], (I, G, N)
-        d[s] = np.einsum("ign,gn,i->", second, mask, inv_s2)
-        r = np.einsum("ign,gn,i,gnit->t", w[:, s], mask, inv_s2, rest)
+        rest += np.einsum("ik,t->kit", w[:, s][:, *steps], m[s])  # the data less every other primitive's share
+        second = w[:, s][:, *steps] ** 2 + np.diagonal(Om[:, s], axis1=-2, axis2=-1)[:, *steps]  # E[W_is^2], (I, K)
+        d[s] = inv_s2 @ second.sum(axis=1)
+        r = np.einsum("ik,kit->t", w[:, s][:, *steps] * inv_s2[:, None], rest)
         Sig[s] = _shifted_solve(A[s], d[s], A[s])
         m[s] = _shifted_solve(A[s], d[s], (mu[s] + A[s] @ r)[:, None])[:, 0]
         c[:, s] = (m[s] @ m[s] + np.trace(Sig[s])) * inv_s2
-        y = (rest @ m[s]).transpose(2, 0, 1) * inv_s2[:, None, None] * mask  # (I, G, N)
+        y = np.zeros(w.shape[:1] + w.shape[2:])  # (I, G, N)
+        y[:, *steps] = (rest @ m[s]).T * inv_s2[:, None]
         Bs = B[:, s]  # (I, G, N, N)
         shift = np.broadcast_to(c[:, s, None], Bs.shape[:2])
         Om[:, s] = _shifted_solve(Bs, shift, Bs, data.groups)
         prior_mean = np.broadcast_to(q["chi"][:, s, :, None], y.shape)
         rhs = (prior_mean + np.einsum("ignk,igk->ign", Bs, y))[..., None]
         w[:, s] = _shifted_solve(Bs, shift, rhs, data.groups)[..., 0]
-        rest -= np.einsum("ign,t->gnit", w[:, s], m[s])
+        rest -= np.einsum("ik,t->kit", w[:, s][:, *steps], m[s])
     return {**q, "m": m, "Sig": Sig, "w": w, "Om": Om, "d": d, "c": c}
 
 
@@ -115,7 +116,7 @@ def _inverse_and_log_det(K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.swapaxes(L_inv, -1, -2) @ L_inv, 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(-1)
 
 
-def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log_alpha_limits, entries=slice(None)) -> tuple:
+def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log_alpha_limits) -> tuple:
     """Per kernel, the candidate shape (width, and nugget for the weight kernels) and the log
     amplitude that minimise its KL terms, the posterior held.
 
@@ -123,11 +124,10 @@ def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log
     ``M = S + d d'``, its KL terms are ``(n log alpha + tr(K^-1 M) / alpha + log|K|) / 2``, so
     for each shape the amplitude has a closed form, ``alpha = tr(K^-1 M) / n``.
 
-    ``grid`` is (shape parameters, each (C,); unit-amplitude inverses (C, E) on the
-    ``entries`` of the flattened core; log-determinants (C,)), shared by every kernel;
-    ``current`` the same for each kernel's present shape, with (...) for (C,) and whole
-    cores; ``moment`` is (..., *core), zero off the ``entries``.  Keeping the present shape
-    among the candidates means the KL terms cannot rise.
+    ``grid`` is (shape parameters, each (C,); unit-amplitude inverses (C, E), flattened;
+    log-determinants (C,)), shared by every kernel; ``current`` the same for each kernel's
+    present shape, with (...) for (C,); ``moment`` is (..., E), flattened alike.  Keeping the
+    present shape among the candidates means the KL terms cannot rise.
     """
     (grid_shapes, grid_inverse, grid_log_det), (shapes, inverse, log_det) = grid, current
     batch = shapes[0].shape
@@ -136,9 +136,9 @@ def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log
         """(C + 1, *batch): the grid's values for every kernel, then each kernel's present one."""
         return np.concatenate([np.broadcast_to(on_grid.reshape(-1, *[1] * len(batch)), (len(on_grid), *batch)), now[None]])
 
-    flat = moment.reshape(int(np.prod(batch)), -1)[:, entries]
+    flat = moment.reshape(int(np.prod(batch)), -1)
     traces = np.concatenate([(grid_inverse @ flat.T).reshape(-1, *batch),
-                             (inverse.reshape(len(flat), -1)[:, entries] * flat).sum(-1).reshape(1, *batch)])
+                             (inverse.reshape(flat.shape) * flat).sum(-1).reshape(1, *batch)])
     low, high = log_alpha_limits
     log_alpha = np.clip(np.log(np.maximum(traces, 1e-300) / n), low, high)
     value = 0.5 * (n * log_alpha + traces * np.exp(-log_alpha) + candidates(grid_log_det, log_det))
@@ -148,31 +148,41 @@ def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log
 
 
 def _time_kernels(kernel: str, r: np.ndarray, ell: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverses and log-determinants of the unit-amplitude time kernels ``K(ell) + JITTER I``, widths ``ell`` (...)."""
+    """Inverses, flattened (..., T T), and log-determinants (...) of the unit-amplitude time
+    kernels ``K(ell) + JITTER I`` of widths ``ell`` (...)."""
     K = np.asarray(time_kernel(kernel, r, 1.0, ell[..., None, None]))
-    return _inverse_and_log_det(K + JITTER * np.eye(len(r)))
+    inverse, log_det = _inverse_and_log_det(K + JITTER * np.eye(len(r)))
+    return inverse.reshape(*inverse.shape[:-2], -1), log_det
+
+
+def _on_steps(blocks) -> np.ndarray:
+    """Per-type blocks (..., g, n, n), one array per size group, flattened into one (..., E)
+    in the order of ``BoundData.groups``: the entries of the weight kernels that couple steps."""
+    return np.concatenate([b.reshape(*b.shape[:-3], -1) for b in blocks], axis=-1)
 
 
 def _weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverses (..., G, N, N) and log-determinants summed over the types (...) of the
-    unit-amplitude weight kernels of widths ``gamma`` and nuggets ``eta`` (...), an identity
-    on empty slots."""
-    L, inverse = slot_algebra.cholesky_and_inverse(unit_weight_kernels(data.d2, data.mask, gamma, eta), data.groups)
-    return inverse, 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(axis=(-1, -2))
+    """Inverses on the steps (..., E) (:func:`_on_steps`) and log-determinants (..., summed
+    over the types) of the unit-amplitude weight kernels ``exp(-gamma d2) + eta I`` of widths
+    ``gamma`` and nuggets ``eta`` (...), each type at its own size: an empty slot's identity
+    adds nothing to either."""
+    inverses, log_det = [], 0.0
+    for n, idx in data.groups:
+        K = np.exp(-gamma[..., None, None, None] * data.d2[idx, :n, :n]) + eta[..., None, None, None] * np.eye(n)
+        inverse, type_log_det = _inverse_and_log_det(K)
+        inverses.append(inverse)
+        log_det = log_det + type_log_det.sum(-1)
+    return _on_steps(inverses), log_det
 
 
 def kernel_grids(data: BoundData, kernel: str) -> dict:
     """The M-step's candidate kernels, the same in every round: the log-spaced widths (and
-    nuggets) of the time and weight kernels with their inverses and log-determinants, the
-    weight kernels' inverses on the entries of their types' own steps (``weight_entries``)."""
+    nuggets) of the time and weight kernels with their inverses (flattened; the weight
+    kernels' on the steps, :func:`_on_steps`) and log-determinants."""
     ells = np.geomspace(float(data.r[0, 1]), 10.0, GRID_POINTS)
-    time_inverse, time_log_det = _time_kernels(kernel, data.r, ells)
     gammas, etas = (g.ravel() for g in np.meshgrid(np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), WEIGHT_GRID_POINTS), ETA_GRID))
-    weight_inverse, weight_log_det = _weight_kernels(data, gammas, etas)
-    entries = np.flatnonzero(data.mask[:, :, None] * data.mask[:, None, :])
-    return {"time": ((ells,), time_inverse.reshape(len(ells), -1), time_log_det),
-            "weight": ((gammas, etas), weight_inverse.reshape(len(gammas), -1)[:, entries], weight_log_det),
-            "weight_entries": entries}
+    return {"time": ((ells,), *_time_kernels(kernel, data.r, ells)),
+            "weight": ((gammas, etas), *_weight_kernels(data, gammas, etas))}
 
 
 def m_step(q: dict, hyper: dict, data: BoundData, kernel: str, grids: dict | None = None) -> dict:
@@ -186,17 +196,17 @@ def m_step(q: dict, hyper: dict, data: BoundData, kernel: str, grids: dict | Non
     deviation = q["m"] - data.mu
     moment = q["Sig"] + deviation[:, :, None] * deviation[:, None, :]  # (S, T, T)
     (ell,), log_alpha_t = _best_kernels(
-        grids["time"], ((ell_now,), *_time_kernels(kernel, data.r, ell_now)), moment, data.r.shape[0],
-        LOG_BOUNDS["log_alpha_t"],
+        grids["time"], ((ell_now,), *_time_kernels(kernel, data.r, ell_now)), moment.reshape(len(moment), -1),
+        data.r.shape[0], LOG_BOUNDS["log_alpha_t"],
     )
     # weight kernels, per (signal, primitive), over all step types at once
-    mask = data.mask
-    deviation = (q["w"] - q["chi"][..., None]) * mask
-    moment = q["Om"] * (mask[:, :, None] * mask[:, None, :]) + deviation[..., :, None] * deviation[..., None, :]
+    deviation = q["w"] - q["chi"][..., None]
+    moment = _on_steps([q["Om"][..., idx, :n, :n] + deviation[..., idx, :n, None] * deviation[..., idx, None, :n]
+                        for n, idx in data.groups])
     gamma_now, eta_now = np.exp(hyper["log_gamma_w"]), np.exp(hyper["log_eta_w"])
     (gamma, eta), log_alpha_w = _best_kernels(
-        grids["weight"], ((gamma_now, eta_now), *_weight_kernels(data, gamma_now, eta_now)), moment, mask.sum(),
-        LOG_BOUNDS["log_alpha_w"], grids["weight_entries"],
+        grids["weight"], ((gamma_now, eta_now), *_weight_kernels(data, gamma_now, eta_now)), moment,
+        data.mask.sum(), LOG_BOUNDS["log_alpha_w"],
     )
     return {"log_alpha_t": log_alpha_t, "log_ell_t": np.log(ell), "log_alpha_w": log_alpha_w,
             "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)}

@@ -8,8 +8,8 @@ diagonal.  Factorising each type's block at its own size costs ``sum_g n_g^3`` i
 ``G N^3``: 4.4 times less on the omnidirectional data (8 types of 20 steps, 2 of 62), and
 the result is the dense one's.
 
-Every function takes ``groups`` (:func:`size_groups`) and the array module ``xp``, NumPy
-or ``jax.numpy`` (the free energy is differentiated by JAX).
+The factorisations take the types by size, ``groups`` (:func:`size_groups`), and the array
+module ``xp``, NumPy or ``jax.numpy`` (the free energy is differentiated by JAX).
 """
 
 from __future__ import annotations
