@@ -141,6 +141,36 @@ def test_phase_timing_is_searched_and_the_cheapest_kept(robot):
     assert solutions["cyclic"].stats["cost"] == min(costs.values())
 
 
+@pytest.mark.parametrize("neighbour_works", [True, False])
+def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(robot, monkeypatch, neighbour_works):
+    """Continuation warm-starts a footstep from its neighbour's walk; where that leads its cyclic
+    step to fail, the footstep's own kinematic walk is tried (the solver is stubbed: only the order of the tries is tested)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from cocomopl.ocp import solve as ocp_solve
+
+    walks = []
+
+    def warm_up_walk(robot, footstep, settings, guess=None, controls=None):
+        walks.append(guess)
+        return SimpleNamespace(xs=["neighbour's" if guess is not None else "own"])
+
+    def solve_with_retries(robot, spec, states, settings, guesses):
+        ok = neighbour_works or guesses[0] == ["own"]
+        return (SimpleNamespace(stats={"cost": 1.0}) if ok else None), [{"guess": "warm start", "converged": ok}]
+
+    monkeypatch.setattr(ocp_solve, "warm_up_walk", warm_up_walk)
+    monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
+    monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
+    neighbour = np.zeros((3, 2))
+    solutions, info = ocp_solve.solve_length(robot, 0.2, replace(SMALL, ss_search_step=0.0), ("cyclic",),
+                                             walk_guess=neighbour)
+    assert solutions["cyclic"] is not None
+    assert walks == ([neighbour] if neighbour_works else [neighbour, None])
+    assert info["duration_search"] == [{"ss_duration": SMALL.ss_duration, "cost": 1.0, "continued": neighbour_works}]
+
+
 def test_descent_finds_the_grid_minimum():
     from cocomopl.ocp.solve import descend
 

@@ -328,14 +328,21 @@ def solve_length(
             ss = round(ss, 6)
             if ss not in tried:
                 opts = replace(settings, ss_duration=ss)
-                walk = warm_up_walk(robot, footstep, opts, walk_guess, walk_controls)
-                segment = walk_segment(robot, walk, "cyclic")
-                x0 = segment[0]
-                guesses = [segment, "kinematic", "static"]
-                solution, record = solve_with_retries(robot, spec_of["cyclic"], {key: x0}, opts, guesses)
-                attempts.setdefault("cyclic", []).extend(record)
-                search.append({"ss_duration": ss, "cost": None if solution is None else solution.stats["cost"]})
-                tried[ss] = None if solution is None else (solution, record, walk, x0, opts)
+                tried[ss] = None
+                # a neighbour's walk can lead the cyclic step where it fails (150 mm, 150 mm out:
+                # failed from both neighbours, solved from the kinematic walk): then start afresh
+                for start in [(walk_guess, walk_controls)] + ([(None, None)] if walk_guess is not None else []):
+                    walk = warm_up_walk(robot, footstep, opts, *start)
+                    segment = walk_segment(robot, walk, "cyclic")
+                    x0 = segment[0]
+                    guesses = [segment, "kinematic", "static"]
+                    solution, record = solve_with_retries(robot, spec_of["cyclic"], {key: x0}, opts, guesses)
+                    attempts.setdefault("cyclic", []).extend(record)
+                    if solution is not None:
+                        tried[ss] = (solution, record, walk, x0, opts)
+                        break
+                search.append({"ss_duration": ss, "cost": None if solution is None else solution.stats["cost"],
+                               "continued": start[0] is not None})
             return np.inf if tried[ss] is None else tried[ss][0].stats["cost"]
 
         best = descend(evaluate, settings.ss_duration, settings.ss_search_step, settings.ss_bounds)

@@ -150,7 +150,7 @@ def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log
 def _time_kernels(kernel: str, r: np.ndarray, ell: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverses, flattened (..., T T), and log-determinants (...) of the unit-amplitude time
     kernels ``K(ell) + JITTER I`` of widths ``ell`` (...)."""
-    K = np.asarray(time_kernel(kernel, r, 1.0, ell[..., None, None]))
+    K = time_kernel(kernel, r, 1.0, ell[..., None, None], np)
     inverse, log_det = _inverse_and_log_det(K + JITTER * np.eye(len(r)))
     return inverse.reshape(*inverse.shape[:-2], -1), log_det
 
@@ -249,7 +249,6 @@ def maximise_bound_em(
         return tuple(np.asarray(x) for x in prior_of({k: jnp.asarray(hyper[k]) for k in HYPERPARAMETERS}))
 
     q = {**_posterior_start(params, *priors(hyper), data), "chi": params["chi"], "sigma2": np.exp(2.0 * params["log_sigma"])}
-    bound = jax.jit(lambda p: free_energy(p, data, kernel))
     grids = kernel_grids(data, kernel)
     bounds = []
     for _ in range(max(max_rounds, 1)):
@@ -258,7 +257,7 @@ def maximise_bound_em(
         A, B = priors(hyper)
         q = means_and_noise(e_step(q, A, B, data), B, data)
         params = as_parameters(q, hyper, A, B, data)
-        bounds.append(float(bound({k: jnp.asarray(v) for k, v in params.items()})))
+        bounds.append(float(free_energy(params, data, kernel, np, (A, B))))
         if on_iteration is not None:
             on_iteration(bounds[-1])
         if len(bounds) > 1 and bounds[-1] - bounds[-2] < TOLERANCE:

@@ -8,6 +8,9 @@ cusps of the ZMP at touchdown.
 
 The weight kernel (eq. 5) is a Kronecker delta on the step type times an RBF on the
 (start length, end length) difference.
+
+Each takes the array module ``xp``: ``jax.numpy`` (the default) where the bound is
+differentiated, NumPy where it is only evaluated (:mod:`cocomopl.primitives.em`).
 """
 
 from __future__ import annotations
@@ -17,20 +20,20 @@ import jax.numpy as jnp
 from cocomopl.primitives import TIME_KERNELS
 
 
-def time_kernel(name: str, r, alpha, ell):
+def time_kernel(name: str, r, alpha, ell, xp=jnp):
     """Kernel matrix for distances ``r`` (..., T, T), amplitude ``alpha`` and length ``ell`` (broadcast)."""
     x = r / ell
     if name == "rbf":
-        return alpha * jnp.exp(-0.5 * x**2)
+        return alpha * xp.exp(-0.5 * x**2)
     if name == "matern32":
-        s = jnp.sqrt(3.0) * x
-        return alpha * (1.0 + s) * jnp.exp(-s)
+        s = xp.sqrt(3.0) * x
+        return alpha * (1.0 + s) * xp.exp(-s)
     if name == "matern52":
-        s = jnp.sqrt(5.0) * x
-        return alpha * (1.0 + s + s**2 / 3.0) * jnp.exp(-s)
+        s = xp.sqrt(5.0) * x
+        return alpha * (1.0 + s + s**2 / 3.0) * xp.exp(-s)
     raise ValueError(f"unknown time kernel {name!r}; choose one of {TIME_KERNELS}")
 
 
-def weight_kernel(d2, alpha, gamma):
+def weight_kernel(d2, alpha, gamma, xp=jnp):
     """Eq. (5) within one step type: ``alpha exp(-gamma |z|^2)`` for squared length distances ``d2``."""
-    return alpha * jnp.exp(-gamma * d2)
+    return alpha * xp.exp(-gamma * d2)

@@ -169,11 +169,10 @@ def _bounds(params: dict, tau: np.ndarray) -> list:
 
 def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
     """What prediction needs: MP posterior, weight-GP hyperparameters and solves, noise."""
-    q = {k: np.asarray(v) for k, v in posterior(params, data, kernel).items()}
-    A = np.asarray(mp_prior(params, data, kernel))
+    A, B = mp_prior(params, data, kernel, np), weight_prior(params, data, np)
+    q = posterior(params, data, kernel, np, (A, B))
     d = np.exp(params["log_d"])[:, None, None]
     m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
-    B = np.asarray(weight_prior(params, data))
     L_B = slot_algebra.cholesky(B, data.groups)
     beta = slot_algebra.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None], data.groups)[..., 0] * data.mask
     c = np.exp(params["log_c"])[:, :, None, None, None]

@@ -44,7 +44,11 @@ def _with_blocks(out, blocks, groups, xp):
 
 
 def _diagonal_matrix(d, xp):
-    return d[..., None] * xp.eye(d.shape[-1])
+    if xp is not np:
+        return d[..., None] * xp.eye(d.shape[-1])
+    out = np.zeros(d.shape + d.shape[-1:])
+    np.einsum("...ii->...i", out)[...] = d  # a view of the diagonal: no (..., N, N) product
+    return out
 
 
 def cholesky(M, groups, xp=np):
