@@ -99,6 +99,29 @@ def _footstep_file(text: str) -> list:
     return _checked(read_landings, text)
 
 
+def _existing_file(text: str) -> Path:
+    if not Path(text).is_file():
+        raise argparse.ArgumentTypeError(f"no file {text!r}")
+    return Path(text)
+
+
+def _group_values(text: str) -> dict[str, float]:
+    """``X`` (every joint) or ``GROUP=X,GROUP=X`` as {group: X}."""
+    out = {}
+    for item in text.split(","):
+        group, _, value = item.rpartition("=")
+        out[group.strip() or "all"] = _number(value)
+    return out
+
+
+def _servo_settings(args):
+    """The servo model of the command line (:class:`~cocomopl.sim.servos.ServoSettings`)."""
+    from cocomopl.sim.servos import ServoSettings
+
+    return ServoSettings(kp_scale=args.kp_scale, kv_time_s=args.kv_time_s, latency_s=args.latency_ms / 1000,
+                         encoder_noise_rad=args.encoder_noise_mrad / 1000, seed=args.noise_seed)
+
+
 def _walk_request(args) -> dict:
     """The walk asked for: ``lengths``, or footstep ``landings``, or a ``goal``."""
     if args.footsteps is not None:
@@ -397,7 +420,7 @@ def cmd_simulate(args) -> int:
     _note_replacing(args.out or f"{Path(args.file).stem}-sim.h5", inputs=[args.file])
     payload = simulate_file(args.file, args.motion, args.out, not args.no_stabilizer, args.contact_time_constant_s,
                             args.reference_cutoff_hz, args.command_line, progress=not args.json,
-                            feedforward=args.feedforward)
+                            feedforward=args.feedforward, sim_model=args.sim_model, servos=_servo_settings(args))
     _emit(args, payload, _metrics_table(payload) + f"\nwrote {payload['output']}")
     return 1 if payload["fell"] else 0
 
@@ -414,7 +437,8 @@ def cmd_walk(args) -> int:
                           progress=not args.json, contact_time_constant=args.contact_time_constant_s,
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
                           strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data,
-                          feedforward=args.feedforward, **request)
+                          feedforward=args.feedforward, sim_model=args.sim_model, servos=_servo_settings(args),
+                          **request)
     for message in payload["warnings"]:
         _warn(message)
     lines = [f"walk {label}: "
@@ -438,7 +462,7 @@ def cmd_reproduce(args) -> int:
     payload = reproduce_report(out, args.model, args.data, progress=not args.json,
                                contact_time_constant=args.contact_time_constant_s,
                                reference_cutoff_hz=args.reference_cutoff_hz, command=args.command_line,
-                               kajita_variant=args.kajita)
+                               kajita_variant=args.kajita, sim_model=args.sim_model, servos=_servo_settings(args))
     start, end = payload["window_s"]
     lines = [(f"every figure over the walking window {start:g} to {end:g} s; contact time constant "
               f"{1000 * payload['contact_time_constant_s']:g} ms, reference low-pass {payload['reference_cutoff_hz']:g} Hz"),
@@ -518,6 +542,20 @@ def _simulation_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference-cutoff-hz", type=_reference_cutoff, metavar="HZ",
                         help=f"cut-off of the reference joints' low-pass, in Hz (default: {REFERENCE_CUTOFF_HZ:g}; "
                         "0 plays the plan's knots interpolated linearly)")
+    parser.add_argument("--sim-model", type=_existing_file, metavar="FILE.xml",
+                        help="simulate on this MuJoCo model of the robot instead of the project's own: its joints "
+                        "matched by name, its servos as given (docs/cli.md#other-model-files)")
+    parser.add_argument("--kp-scale", type=_group_values, default={}, metavar="[GROUP=]X,...",
+                        help="multiply the servos' stiffness kp, of all joints (X) or per group legs, torso, arms "
+                        "(e.g. legs=0.8,arms=1.25)")
+    parser.add_argument("--kv-time-s", type=_group_values, default={}, metavar="[GROUP=]S,...",
+                        help="set the servos' damping to kv = kp * S (S in seconds), of all joints or per group")
+    parser.add_argument("--latency-ms", type=_non_negative_float, default=0.0, metavar="MS",
+                        help="delay of every command on its way to the servos, in milliseconds (default: 0)")
+    parser.add_argument("--encoder-noise-mrad", type=_non_negative_float, default=0.0, metavar="MRAD",
+                        help="standard deviation of the noise on each servo's joint reading, in milliradians "
+                        "(default: 0)")
+    parser.add_argument("--noise-seed", type=_positive_int, default=1, metavar="N", help="seed of the encoder noise (default: 1)")
 
 
 def _servo_options(parser: argparse.ArgumentParser) -> None:

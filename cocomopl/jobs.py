@@ -459,6 +459,8 @@ def simulate_file(
     command: str | None = None,
     progress: bool = False,
     feedforward: bool = False,
+    sim_model: str | Path | None = None,
+    servos=None,
 ) -> dict:
     """Run a motion of a file in MuJoCo as a position-controlled robot (with ``feedforward``,
     torque feedforward from the plan) and write the measured motion to ``out`` (default:
@@ -473,11 +475,14 @@ def simulate_file(
     robot = load_robot(reference.robot)
     rollout, metrics = simulate_walk(robot, reference, stabilizer=stabilizer, progress=progress,
                                      contact_time_constant=contact_time_constant,
-                                     reference_cutoff_hz=reference_cutoff_hz, feedforward=feedforward)
+                                     reference_cutoff_hz=reference_cutoff_hz, feedforward=feedforward, sim_model=sim_model,
+                                     servos=servos)
     write_motions(out, {"measured": rollout.measured},
                   {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
     return {"output": str(out), "stabilizer": stabilizer, "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
             "feedforward": feedforward,
+            "sim_model": rollout.measured.meta["sim_model"],
+            "servos": rollout.measured.meta["servos"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
 

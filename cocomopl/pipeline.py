@@ -182,6 +182,8 @@ def simulate_walk(
     reference_cutoff_hz: float | None = None,
     gains=None,
     feedforward: bool = False,
+    sim_model: str | Path | None = None,
+    servos=None,
 ):
     """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
 
@@ -190,7 +192,7 @@ def simulate_walk(
     from cocomopl.analysis.metrics import summary
 
     rollout = rollout_of(robot, motion, stabilizer, video, progress, contact_time_constant, reference_cutoff_hz, gains,
-                         feedforward)
+                         feedforward, sim_model, servos)
     return rollout, summary(robot, rollout.measured, motion)
 
 
@@ -204,22 +206,31 @@ def rollout_of(
     reference_cutoff_hz: float | None = None,
     gains=None,
     feedforward: bool = False,
+    sim_model: str | Path | None = None,
+    servos=None,
 ):
     """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo; with ``video``, also
-    rendered there (MP4).  ``contact_time_constant`` (s) sets the sole-floor softness
+    rendered there (MP4).  ``sim_model`` is a MuJoCo model file of the robot made elsewhere
+    (:func:`~cocomopl.sim.mujoco_model.load_sim_model`); default: the project's own model.
+    ``servos`` (:class:`~cocomopl.sim.servos.ServoSettings`) sets the servos' gains, latency
+    and encoder noise; default the model's servos, ideal.
+    ``contact_time_constant`` (s) sets the sole-floor softness
     (default: the model's), ``reference_cutoff_hz`` the reference's low-pass (default: the
     rollout's; 0: none), ``gains`` the stabilizer's
     (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default: those tuned for the
     motion's generator), ``feedforward`` the servos' torque feedforward from the plan
     (:func:`~cocomopl.sim.rollout.simulate`)."""
-    from cocomopl.sim.mujoco_model import build_sim_model
+    from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
 
-    sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
+    if sim_model is not None:
+        sim = load_sim_model(robot, sim_model, contact_time_constant)
+    else:
+        sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
     cutoff = REFERENCE_CUTOFF_HZ if reference_cutoff_hz is None else reference_cutoff_hz
     rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains,
-                       feedforward=feedforward)
+                       feedforward=feedforward, servos=servos)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout
@@ -243,6 +254,8 @@ def walk_report(
     landings: Sequence[Landing] | None = None,
     goal: Goal | Sequence[Goal] | None = None,
     feedforward: bool = False,
+    sim_model: str | Path | None = None,
+    servos=None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -258,7 +271,7 @@ def walk_report(
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
     written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
     interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
-    :func:`generate_walk`'s; ``feedforward`` the servos' torque feedforward (:func:`rollout_of`).
+    :func:`generate_walk`'s; ``feedforward``, ``sim_model`` and ``servos`` as :func:`rollout_of`'s.
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -279,7 +292,7 @@ def walk_report(
         rollout, metrics = simulate_walk(
             walk.robot, planned["refined" if refine_steps else "generated"], stabilizer,
             work / "walk.mp4" if video else None, progress, contact_time_constant, reference_cutoff_hz,
-            feedforward=feedforward,
+            feedforward=feedforward, sim_model=sim_model, servos=servos,
         )
         motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
@@ -296,6 +309,8 @@ def walk_report(
             "stabilizer": stabilizer,
             "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
             "feedforward": feedforward,
+            "sim_model": rollout.measured.meta["sim_model"],
+            "servos": rollout.measured.meta["servos"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
             **metrics,
@@ -368,6 +383,8 @@ def reproduce_report(
     reference_cutoff_hz: float | None = None,
     command: str | None = None,
     kajita_variant: str = "two-stage",
+    sim_model: str | Path | None = None,
+    servos=None,
 ) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_gen refined by the OCPs
     of the dataset at ``dataset_path`` (:func:`refine`), M_opt from chained OCPs (that
@@ -388,7 +405,7 @@ def reproduce_report(
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
         robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress, contact_time_constant,
-                                                               reference_cutoff_hz, kajita_variant)
+                                                               reference_cutoff_hz, kajita_variant, sim_model, servos)
         payload["provenance"] = provenance
         motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
                    for name, m in by_name.items()}
@@ -425,7 +442,7 @@ def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
 def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool = False,
                       contact_time_constant: float | None = None, reference_cutoff_hz: float | None = None,
                       gains: dict | None = None, window: tuple[float, float] | None = None,
-                      ) -> tuple[dict, dict, tuple[float, float]]:
+                      sim_model: str | Path | None = None, servos=None) -> tuple[dict, dict, tuple[float, float]]:
     """Simulate each of the ``planned`` walks with the stabilizer and measure them by the
     comparison protocol (:mod:`cocomopl.analysis.comparison`).
 
@@ -443,14 +460,16 @@ def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool =
     for name, motion in planned.items():
         # measured below, over the window only
         rollout = rollout_of(robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant,
-                             reference_cutoff_hz=reference_cutoff_hz, gains=(gains or {}).get(name))
+                             reference_cutoff_hz=reference_cutoff_hz, gains=(gains or {}).get(name), sim_model=sim_model,
+                             servos=servos)
         # the simulator's clock starts at the plan's first sample
         simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
     return simulated, window_figures(robot, planned, simulated, window), window
 
 
 def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_time_constant: float | None,
-                      reference_cutoff_hz: float | None, kajita_variant: str = "two-stage") -> tuple[Robot, dict, dict, dict]:
+                      reference_cutoff_hz: float | None, kajita_variant: str = "two-stage",
+                      sim_model: str | Path | None = None, servos=None) -> tuple[Robot, dict, dict, dict]:
     """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "refined"
     (M_gen refined by optimal control), "OC", "Kajita") and the summary without provenance, files and wall time."""
     from cocomopl.analysis.comparison import per_measure
@@ -469,7 +488,8 @@ def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_ti
     refined, refine_summary = refine(walk.motion, dataset_path, progress)
     kajita = kajita_for(walk, kajita_variant)
     planned = {"MP": walk.motion, "refined": refined.motion, "OC": m_opt, "Kajita": kajita}
-    simulated, figures, window = simulate_compared(robot, planned, progress, contact_time_constant, reference_cutoff_hz)
+    simulated, figures, window = simulate_compared(robot, planned, progress, contact_time_constant, reference_cutoff_hz,
+                                                   sim_model=sim_model, servos=servos)
     table = {}
     for name, label in (("OC", "OC planned (joint torques)"), ("MP", "MP planned (inverse dynamics)"),
                         ("refined", "refined planned (joint torques)"), ("Kajita", "Kajita planned (inverse dynamics)")):
@@ -484,6 +504,8 @@ def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_ti
         "refined_vs_oc": per_measure(figures, "refined", "OC"),
         "refine": refine_summary,
         "metrics": figures,
+        "sim_model": simulated["MP"].meta["sim_model"],
+        "servos": simulated["MP"].meta["servos"],
         "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
         "reference_cutoff_hz": simulated["MP"].meta["reference_cutoff_hz"],
         "kajita": {key: kajita.meta[key] for key in (

@@ -184,3 +184,22 @@ def test_a_missing_extra_is_named_in_one_line(monkeypatch, tmp_path, capsys, mis
     error = capsys.readouterr().err
     assert error.startswith("cocomopl: error: ") and f"[{extra}] extra" in error and len(error.splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("option, words", [
+    (["--sim-model", "missing.xml"], ["--sim-model", "no file"]),
+    (["--sim-model", "bad.xml"], ["bad.xml", "not a MuJoCo model"]),
+    (["--kp-scale", "knee=0.5"], ["servo group 'knee'"]),
+    (["--kp-scale", "legs=x"], ["--kp-scale", "'x' is not a number"]),
+    (["--kv-time-s", "-0.1"], ["kv time constant -0.1"]),
+    (["--latency-ms", "500"], ["latency 0.5 s"]),
+    (["--encoder-noise-mrad", "nan"], ["--encoder-noise-mrad"]),
+])
+def test_bad_simulation_models_and_servo_settings(tmp_path, monkeypatch, option, words):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.xml").write_text("<mujoco><worldbody>")
+    from cocomopl.data import BUNDLED_DATASET
+
+    result = run_cli("simulate", str(BUNDLED_DATASET), "--motion", "start_250_L", *option, "--out", "m.h5")
+    assert_one_line_error(result, *words)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.xml"]

@@ -10,7 +10,7 @@ from cocomopl.gait import foot_separation
 from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Motion
 from cocomopl.motion_file import read_motion, write_motions
-from cocomopl.sim.mujoco_model import build_sim_model
+from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model, mjcf
 from cocomopl.sim.rollout import _placed_on_floor, simulate
 from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, _leg_maps
 
@@ -210,3 +210,82 @@ def test_torque_feedforward_makes_the_servos_track_the_plan(robot, sim):
         planned = np.column_stack([np.interp(measured.t[playing], reference.t - reference.t[0], x) for x in reference.q[:, 7:].T])
         errors[feedforward] = np.sqrt(np.mean((measured.q[playing, 7:] - planned) ** 2))
     assert errors[True] < 0.2 * errors[False]
+
+
+def _other_model_file(robot, path, drop_actuators: bool = False):
+    """The project's own MuJoCo model rewritten as someone else might have written it: no sole
+    geoms, servos in reverse order under other names with 0.8 times the gains, masses and
+    inertias 4 % more, friction loss 1 N m on every joint, and a joint the robot does not have."""
+    spec = mujoco.MjSpec.from_string(mjcf(robot, visuals=False))
+    for side in ("left", "right"):
+        spec.delete(spec.geom(f"{side}_sole"))
+        spec.delete(spec.site(f"{side}_sole"))
+    for actuator in list(spec.actuators):
+        spec.delete(actuator)
+    if not drop_actuators:
+        for name, tau in reversed(list(zip(robot.joint_names, robot.tau_max))):
+            servo = spec.add_actuator(name=f"servo_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            kp = 0.8 * tau / 0.03
+            servo.set_to_position(kp=kp, kv=kp / 50)
+    for body in spec.bodies:
+        body.mass *= 1.04
+        body.fullinertia = 1.04 * np.asarray(body.fullinertia)
+    for joint in spec.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+            joint.frictionloss = 1.0
+    extra = spec.body(robot.model.names[1]).add_body(name="antenna", pos=[0, 0, 0.3])
+    extra.add_joint(name="antenna_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[1, 0, 0])
+    extra.add_geom(size=[0.02, 0, 0], mass=0.1, contype=0, conaffinity=0)
+    path.write_text(spec.to_xml())
+    return path
+
+
+def test_a_model_file_made_elsewhere_is_matched_by_joint_name_and_walked(robot, tmp_path):
+    sim = load_sim_model(robot, _other_model_file(robot, tmp_path / "other.xml"))
+    assert [sim.mj.actuator(int(a)).name for a in sim.actuators] == [f"servo_{n}" for n in robot.joint_names]
+    assert [sim.mj.joint(int(np.flatnonzero(sim.mj.jnt_qposadr == i)[0])).name for i in sim.qpos_index] == robot.joint_names
+    assert all(len(sim.sole_geoms[side]) == 1 for side in ("left", "right"))  # the description's soles added
+    assert sim.mj.neq == 1  # the antenna, which no servo drives, is held
+    assert np.allclose(sim.mj.actuator_forcerange[sim.actuators, 1], robot.tau_max)  # the URDF's torque limits
+    rng = np.random.default_rng(3)
+    q = _random_configuration(robot, rng)
+    v = rng.normal(size=robot.model.nv)
+    assert np.allclose(sim.q(sim.qpos(q)), q) and np.allclose(sim.v(sim.qpos(q), sim.qvel(q, v)), v)
+    rollout = simulate(sim, read_motion(DATASET, "start_250_L"), stabilizer=True)
+    assert not rollout.fell
+    weight = 1.04 * robot.mass * 9.81
+    assert np.abs(rollout.measured.wrenches[-20:, :, 2].sum(axis=1) / weight - 1).max() < 0.03  # stands on the added soles
+    stiff = simulate(sim, _standing(robot, 0.3), stabilizer=False).measured  # the file's servos, in the robot's order
+    sag = np.abs(stiff.q[-1, 7:] - _standing(robot, 0.3).q[0, 7:])
+    knee = robot.joint_names.index("leg_left_4_joint")
+    assert sag[knee] == pytest.approx(np.abs(stiff.tau[-1, knee]) / (0.8 * robot.tau_max[knee] / 0.03), rel=0.3, abs=2e-4)
+
+
+def test_a_model_file_without_actuators_gets_the_projects_servos(robot, tmp_path):
+    sim = load_sim_model(robot, _other_model_file(robot, tmp_path / "bare.xml", drop_actuators=True))
+    assert np.allclose(sim.servo_gains()[0], robot.tau_max / 0.03)
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda text: text.replace('"leg_left_4_joint"', '"knee"'), "no joint leg_left_4_joint"),
+    (lambda text: "<mujoco><worldbody>", "not a MuJoCo model"),
+    (lambda text: text.replace('joint="leg_left_4_joint"', 'joint="antenna_joint"'), "has no position servo"),
+])
+def test_a_model_file_of_another_robot_is_refused_in_one_line(robot, tmp_path, damage, message):
+    from cocomopl.errors import Error
+
+    path = _other_model_file(robot, tmp_path / "other.xml")
+    path.write_text(damage(path.read_text()))
+    with pytest.raises(Error, match=message) as raised:
+        load_sim_model(robot, path)
+    assert "\n" not in str(raised.value)
+
+
+def test_the_projects_own_model_read_as_a_model_file_walks_exactly_as_built(robot, sim, tmp_path):
+    path = tmp_path / "own.xml"
+    path.write_text(mjcf(robot, visuals=False))
+    reference = read_motion(DATASET, "start_250_L")
+    built = simulate(sim, reference, stabilizer=True).measured
+    read = simulate(load_sim_model(robot, path), reference, stabilizer=True).measured
+    assert read.meta["sim_model"] == str(path)
+    assert np.allclose(read.q, built.q, atol=1e-9) and np.allclose(read.wrenches, built.wrenches, atol=1e-6)

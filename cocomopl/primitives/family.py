@@ -37,18 +37,12 @@ def probe_lengths(lengths: list[float]) -> list[float]:
 
 def signal_group_indices(robot: Robot, names: list[str]) -> dict[str, np.ndarray]:
     """Signal indices of each of :data:`GROUPS`: the joints split into legs, torso (with the
-    head) and arms, then the ZMP and the pelvis orientation."""
+    head) and arms (:meth:`~cocomopl.robot.Robot.joint_groups`), then the ZMP and the pelvis
+    orientation."""
     groups = signal_groups(names)
-    legs = set(robot.leg_joint_indices())
-    joints = groups["joints"]
-    arms = [i for i in joints if i not in legs and names[i].startswith("arm")]
-    return {
-        "legs": np.array(sorted(legs)),
-        "torso": np.array([i for i in joints if i not in legs and i not in arms]),
-        "arms": np.array(arms),
-        "zmp": groups["zmp"],
-        "pelvis": groups["pelvis"],
-    }
+    joints = groups["joints"]  # the robot's joints, in its order
+    return {**{group: joints[idx] for group, idx in robot.joint_groups().items()},
+            "zmp": groups["zmp"], "pelvis": groups["pelvis"]}
 
 
 def probe_steps(robot: Robot, motions: dict[StepSpec, Motion], source: dict) -> TrainingSteps:

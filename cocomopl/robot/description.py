@@ -293,6 +293,14 @@ class Robot:
         """Actuated-joint indices of the chains from the pelvis to the soles."""
         return sorted(set(self.leg_chain("left")) | set(self.leg_chain("right")))
 
+    def joint_groups(self) -> dict[str, np.ndarray]:
+        """Actuated-joint indices of the ``legs`` (the chains to the soles), the ``arms`` (the
+        other joints named ``arm...``) and the ``torso`` (the rest, the head among them)."""
+        legs = set(self.leg_joint_indices())
+        arms = [i for i, name in enumerate(self.joint_names) if i not in legs and name.startswith("arm")]
+        torso = [i for i in range(self.nu) if i not in legs and i not in arms]
+        return {"legs": np.array(sorted(legs), dtype=int), "torso": np.array(torso, dtype=int), "arms": np.array(arms, dtype=int)}
+
     def leg_roles(self) -> dict[str, dict[str, int]]:
         """Per side, the actuated-joint indices of hip roll and pitch, knee, and ankle pitch and
         roll, found by axis along the chain from the pelvis to the sole: the first X and Y

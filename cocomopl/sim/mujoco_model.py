@@ -13,7 +13,7 @@ from the description's SRDF) as armature.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -41,33 +41,73 @@ MAX_CONTACT_TIME_CONSTANT = 0.1  # s: softer soles sink centimetres
 
 @dataclass
 class SimModel:
-    """A compiled MuJoCo model and where the robot's quantities live in it."""
+    """A compiled MuJoCo model and where the robot's quantities live in it.
+
+    The robot floats on the model's first joint, a free joint (``qpos[:7]``, ``qvel[:6]``);
+    its actuated joints, in the robot's order, are at ``qpos_index`` and ``dof_index`` and
+    driven by the position servos ``actuators``.  A model file of the robot made elsewhere
+    (:func:`load_sim_model`) may order them otherwise and have more joints: the actuators
+    ``held_actuators`` hold such joints at ``held_commands``.
+    """
 
     mj: mujoco.MjModel
     robot: Robot
-    sole_geoms: dict[str, int]  # side -> geom id of the sole box
+    sole_geoms: dict[str, tuple[int, ...]]  # side -> geom ids that touch the floor
     sole_sites: dict[str, int]  # side -> site id at the sole frame
     base_body: int
     contact_time_constant: float  # s
+    qpos_index: np.ndarray | None = None  # (nu,) default: 7, 8, ...
+    dof_index: np.ndarray | None = None  # (nu,) default: 6, 7, ...
+    actuators: np.ndarray | None = None  # (nu,) default: 0, 1, ...
+    held_actuators: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    held_commands: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    source: str = "built from the robot description"
+
+    def __post_init__(self):
+        nu = self.robot.nu
+        self.qpos_index = np.arange(7, 7 + nu) if self.qpos_index is None else np.asarray(self.qpos_index)
+        self.dof_index = np.arange(6, 6 + nu) if self.dof_index is None else np.asarray(self.dof_index)
+        self.actuators = np.arange(nu) if self.actuators is None else np.asarray(self.actuators)
 
     def qpos(self, q: np.ndarray) -> np.ndarray:
-        """MuJoCo ``qpos`` from a Pinocchio configuration (quaternion x,y,z,w -> w,x,y,z)."""
-        return np.concatenate([q[:3], [q[6], q[3], q[4], q[5]], q[7:]])
+        """MuJoCo ``qpos`` from a Pinocchio configuration (quaternion x,y,z,w -> w,x,y,z);
+        joints the robot does not have keep the model's reference positions."""
+        out = self.mj.qpos0.copy()
+        out[:7] = [*q[:3], q[6], q[3], q[4], q[5]]
+        out[self.qpos_index] = q[7:]
+        return out
 
     def q(self, qpos: np.ndarray) -> np.ndarray:
         """Pinocchio configuration from MuJoCo ``qpos``."""
-        return np.concatenate([qpos[:3], qpos[4:7], [qpos[3]], qpos[7:]])
+        return np.concatenate([qpos[:3], qpos[4:7], [qpos[3]], qpos[self.qpos_index]])
 
     def qvel(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """MuJoCo ``qvel`` (free-joint linear velocity in the world frame) from Pinocchio's
         (linear velocity in the base frame)."""
         R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
-        return np.concatenate([R @ v[:3], v[3:]])
+        out = np.zeros(self.mj.nv)
+        out[:6] = [*(R @ v[:3]), *v[3:6]]
+        out[self.dof_index] = v[6:]
+        return out
 
     def v(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
         """Pinocchio velocity from MuJoCo ``qpos``, ``qvel``."""
         R = pin.Quaternion(qpos[3], qpos[4], qpos[5], qpos[6]).toRotationMatrix()
-        return np.concatenate([R.T @ qvel[:3], qvel[3:]])
+        return np.concatenate([R.T @ qvel[:3], qvel[3:6], qvel[self.dof_index]])
+
+    def command(self, data: mujoco.MjData, joints: np.ndarray) -> None:
+        """Send joint position commands (nu,), in the robot's order, to the servos."""
+        data.ctrl[self.actuators] = joints
+        data.ctrl[self.held_actuators] = self.held_commands
+
+    def joint_torques(self, data: mujoco.MjData) -> np.ndarray:
+        """The servos' torques (nu,), in the robot's order."""
+        return data.actuator_force[self.actuators]
+
+    def servo_gains(self) -> np.ndarray:
+        """(kp, kv) of the robot's joint servos, (2, nu)."""
+        model = self.mj
+        return np.stack([model.actuator_gainprm[self.actuators, 0], -model.actuator_biasprm[self.actuators, 2]])
 
     def sole_wrenches(self, data: mujoco.MjData) -> np.ndarray:
         """Contact wrench (2, 6) on each sole from the floor: world axes, about the sole frame."""
@@ -76,12 +116,12 @@ class SimModel:
         for i in range(data.ncon):
             contact = data.contact[i]
             for j, side in enumerate(SIDES):
-                geom = self.sole_geoms[side]
-                if geom not in (contact.geom1, contact.geom2):
+                geoms = self.sole_geoms[side]
+                if contact.geom1 not in geoms and contact.geom2 not in geoms:
                     continue
                 mujoco.mj_contactForce(self.mj, data, i, force)
                 # contact-frame force, normal from geom1 to geom2: on geom2 as is, on geom1 reversed
-                f = contact.frame.reshape(3, 3).T @ force[:3] * (1.0 if contact.geom2 == geom else -1.0)
+                f = contact.frame.reshape(3, 3).T @ force[:3] * (1.0 if contact.geom2 in geoms else -1.0)
                 arm = contact.pos - data.site_xpos[self.sole_sites[side]]
                 out[j, :3] += f
                 out[j, 3:] += np.cross(arm, f)
@@ -93,8 +133,7 @@ def _vec(x) -> str:
 
 
 def _pose(M: pin.SE3) -> str:
-    w, x, y, z = (lambda c: (c[3], c[0], c[1], c[2]))(pin.Quaternion(M.rotation).coeffs())
-    return f'pos="{_vec(M.translation)}" quat="{_vec([w, x, y, z])}"'
+    return f'pos="{_vec(M.translation)}" quat="{_vec(_wxyz(M.rotation))}"'
 
 
 def _inertial(inertia: pin.Inertia) -> str:
@@ -265,8 +304,183 @@ def build_sim_model(robot: Robot, visuals: bool = True, contact_time_constant: f
     return SimModel(
         mj=mj,
         robot=robot,
-        sole_geoms={side: mj.geom(f"{side}_sole").id for side in SIDES},
+        sole_geoms={side: (mj.geom(f"{side}_sole").id,) for side in SIDES},
         sole_sites={side: mj.site(f"{side}_sole").id for side in SIDES},
         base_body=mj.body(robot.model.names[1]).id,
         contact_time_constant=contact_time_constant,
     )
+
+
+GEOMETRY_TOLERANCE_M = 0.005  # how far a model file's soles may sit from the robot description's
+
+
+def load_sim_model(robot: Robot, path: str | Path, contact_time_constant: float | None = None) -> SimModel:
+    """A MuJoCo model file of ``robot`` made elsewhere (e.g. MuJoCo Menagerie's TALOS), ready to walk.
+
+    The robot's joints are found in the file by name, in any order.  The file's actuators are
+    used as given: each of the robot's joints needs a position servo (``<position>``, or a
+    general actuator with a fixed gain and an affine bias of the same form), and one without a
+    torque limit gets the URDF's; a file with no actuator at all gets the project's servos
+    (:func:`build_sim_model`).  Joints the robot does
+    not have (head, grippers) are held where the file's reference posture puts them: by their
+    servo if they have one, else by a joint equality.  A foot body with no geom that collides
+    gets the description's sole box; each sole gets a site at the sole frame.  A file with no
+    floor plane gets the project's floor.  ``contact_time_constant`` (s), if given, sets the
+    floor's and the soles' contact softness (``solref``); else the file's stand and the geoms
+    added take ``CONTACT_TIME_CONSTANT``.
+
+    Raises
+    ------
+    Error
+        In one line, if the file cannot be read or compiled, or is not a model of ``robot``
+        (a joint missing, no free joint first, a servo missing or not a position servo, soles
+        more than ``GEOMETRY_TOLERANCE_M`` from where the description puts them).
+    """
+    path = Path(path)
+    if contact_time_constant is not None:
+        check_contact_time_constant(contact_time_constant)
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except ValueError as exc:  # MuJoCo's error for files it cannot read
+        raise Error(f"{path}: not a MuJoCo model it can compile ({str(exc).splitlines()[0]})") from None
+    mj = _compiled(spec, path)
+    names = {mj.joint(j).name for j in range(mj.njnt)}
+    missing = [name for name in robot.joint_names if name not in names]
+    if missing:
+        raise Error(f"{path}: no joint {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}: "
+                    f"not a model of robot {robot.name} (joints are matched by name)")
+    if mj.njnt == 0 or mj.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE or mj.jnt_qposadr[0] != 0:
+        raise Error(f"{path}: the robot must float on the model's first joint, a free joint")
+    solref = None if contact_time_constant is None else [contact_time_constant, 1.0]
+    _add_floor(spec, solref)
+    feet = {side: robot.model.names[robot.model.frames[robot.foot_frames[side]].parentJoint] for side in SIDES}
+    for side, joint in feet.items():
+        _add_sole(spec, robot, side, joint, solref)
+    _drive(spec, mj, robot, path)
+    mj = _compiled(spec, path)
+    sim = _sim_of(mj, robot, contact_time_constant or CONTACT_TIME_CONSTANT, feet, str(path))
+    _check_soles(sim, path)
+    return sim
+
+
+def _compiled(spec: mujoco.MjSpec, path: Path) -> mujoco.MjModel:
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise Error(f"{path}: not a MuJoCo model it can compile ({str(exc).splitlines()[0]})") from None
+
+
+def _add_floor(spec: mujoco.MjSpec, solref: list[float] | None) -> None:
+    """The project's floor, unless the file has a plane to stand on; ``solref``, if given, on its planes."""
+    planes = [g for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE]
+    for plane in planes:
+        if solref is not None:
+            plane.solref = solref
+    if not planes:
+        spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                                friction=[FRICTION, 0.005, 0.0001], solref=solref or [CONTACT_TIME_CONSTANT, 1.0])
+
+
+def _add_sole(spec: mujoco.MjSpec, robot: Robot, side: str, joint: str, solref) -> None:
+    """A site at ``side``'s sole frame on the body of ``joint``; the description's sole box
+    if that body has no colliding geom; ``solref`` on its colliding geoms if given."""
+    body = spec.joint(joint).parent
+    frame = robot.model.frames[robot.foot_frames[side]]
+    colliding = [g for g in body.geoms if g.contype or g.conaffinity]  # defaults applied, as compiled
+    if not colliding:
+        sole = robot.sole
+        half = [(sole.front + sole.back) / 2, sole.half_width, SOLE_THICKNESS / 2]
+        centre = frame.placement * pin.SE3(np.eye(3), np.array([(sole.front - sole.back) / 2, 0.0, half[2]]))
+        colliding = [body.add_geom(name=f"cocomopl_{side}_sole", type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
+                                   pos=centre.translation, quat=_wxyz(centre.rotation), friction=[FRICTION, 0.005, 0.0001],
+                                   contype=1, conaffinity=1, condim=3)]
+        solref = solref or [CONTACT_TIME_CONSTANT, 1.0]
+    for g in colliding:
+        if solref is not None:
+            g.solref = solref
+    body.add_site(name=f"cocomopl_{side}_sole", pos=frame.placement.translation, quat=_wxyz(frame.placement.rotation),
+                  size=[0.01, 0.01, 0.01])
+
+
+def _wxyz(R: np.ndarray) -> list[float]:
+    q = pin.Quaternion(R)
+    return [q.w, q.x, q.y, q.z]
+
+
+def _drive(spec: mujoco.MjSpec, mj: mujoco.MjModel, robot: Robot, path: Path) -> None:
+    """Servos for the robot's joints (the project's, if the file has no actuator) and holds
+    for the file's other joints."""
+    if mj.nu == 0:
+        for name, tau, lower, upper in zip(robot.joint_names, robot.tau_max, robot.q_lower, robot.q_upper):
+            kp = tau / FULL_TORQUE_ERROR
+            actuator = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            actuator.set_to_position(kp=kp, kv=kp * SERVO_DAMPING_TIME)
+            actuator.forcelimited, actuator.forcerange = mujoco.mjtLimited.mjLIMITED_TRUE, [-tau, tau]
+            actuator.ctrllimited, actuator.ctrlrange = mujoco.mjtLimited.mjLIMITED_TRUE, [lower, upper]
+        mj = _compiled(spec, path)
+    servos = _joint_servos(mj)
+    missing = [name for name in robot.joint_names if name not in servos]
+    if missing:
+        raise Error(f"{path}: joint {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''} has no position servo "
+                    "(a file with actuators must drive every joint of the robot)")
+    by_id = {actuator.id: actuator for actuator in spec.actuators}
+    for name, tau in zip(robot.joint_names, robot.tau_max):
+        if not mj.actuator_forcelimited[servos[name]]:  # a servo without a torque limit gets the URDF's
+            actuator = by_id[servos[name]]
+            actuator.forcelimited, actuator.forcerange = mujoco.mjtLimited.mjLIMITED_TRUE, [-tau, tau]
+    others = {mj.joint(j).name for j in range(1, mj.njnt)} - set(robot.joint_names) - set(servos)
+    for name in sorted(others):  # no servo: held at the reference posture by a joint equality
+        spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=name, objtype=mujoco.mjtObj.mjOBJ_JOINT)
+
+
+def _joint_servos(mj: mujoco.MjModel) -> dict[str, int]:
+    """Joint name -> id of the position servo that drives it (gain kp, bias -kp q - kv qdot)."""
+    out = {}
+    for a in range(mj.nu):
+        if mj.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+            continue
+        kp = mj.actuator_gainprm[a, 0]
+        position = (mj.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and mj.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_AFFINE
+                    and kp > 0 and np.isclose(mj.actuator_biasprm[a, 1], -kp) and mj.actuator_biasprm[a, 0] == 0)
+        if position and mj.actuator_gear[a, 0] == 1:
+            out[mj.joint(mj.actuator_trnid[a, 0]).name] = a
+    return out
+
+
+def _sim_of(mj: mujoco.MjModel, robot: Robot, contact_time_constant: float, feet: dict[str, str], source: str) -> SimModel:
+    servos = _joint_servos(mj)
+    joint_id = {name: mj.joint(name).id for name in robot.joint_names}
+    held = np.array(sorted(a for name, a in servos.items() if name not in joint_id), dtype=int)
+    sole_geoms = {}
+    for side, joint in feet.items():
+        body = mj.jnt_bodyid[mj.joint(joint).id]
+        sole_geoms[side] = tuple(int(g) for g in np.flatnonzero(mj.geom_bodyid == body)
+                                 if mj.geom_contype[g] or mj.geom_conaffinity[g])
+    return SimModel(
+        mj=mj,
+        robot=robot,
+        sole_geoms=sole_geoms,
+        sole_sites={side: mj.site(f"cocomopl_{side}_sole").id for side in SIDES},
+        base_body=int(mj.jnt_bodyid[0]),
+        contact_time_constant=contact_time_constant,
+        qpos_index=np.array([mj.jnt_qposadr[joint_id[n]] for n in robot.joint_names]),
+        dof_index=np.array([mj.jnt_dofadr[joint_id[n]] for n in robot.joint_names]),
+        actuators=np.array([servos[n] for n in robot.joint_names]),
+        held_actuators=held,
+        held_commands=mj.qpos0[mj.jnt_qposadr[mj.actuator_trnid[held, 0]]] if len(held) else np.zeros(0),
+        source=source,
+    )
+
+
+def _check_soles(sim: SimModel, path: Path) -> None:
+    """Refuse a file whose soles are not where the description puts them, at its reference posture."""
+    robot = sim.robot
+    data = mujoco.MjData(sim.mj)
+    data.qpos[:] = sim.qpos(robot.q_ref)
+    mujoco.mj_kinematics(sim.mj, data)
+    pdata = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, pdata, robot.q_ref)
+    off = max(np.linalg.norm(data.site_xpos[sim.sole_sites[s]] - pdata.oMf[robot.foot_frames[s]].translation) for s in SIDES)
+    if off > GEOMETRY_TOLERANCE_M:
+        raise Error(f"{path}: its feet are {1000 * off:.0f} mm from where robot {robot.name}'s description puts them: "
+                    "not a model of this robot, or its bodies' frames differ from the URDF's links")

@@ -28,6 +28,7 @@ from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
+from cocomopl.sim.servos import CommandChannel, ServoSettings, with_gains
 from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, gains_for
 
 RECORD_DT = 0.005  # s between recorded samples
@@ -121,6 +122,7 @@ def simulate(
     reference_cutoff_hz: float = REFERENCE_CUTOFF_HZ,
     gains: StabilizerGains | None = None,
     feedforward: bool = False,
+    servos: ServoSettings | None = None,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -140,20 +142,25 @@ def simulate(
     feedforward : offset the commands by the plan's torques and the servos' damping of the
         plan's velocity (:func:`_reference_joints`), so that the servos track the plan
         rather than sag and lag
+    servos : per-group servo gains, control latency and encoder noise
+        (:class:`~cocomopl.sim.servos.ServoSettings`); default the model's servos, ideal
 
     Returns
     -------
     Rollout with the measured :class:`Motion` (time 0 = the reference's first sample)
     """
     check_reference_cutoff(reference_cutoff_hz)
+    servos = servos or ServoSettings()
+    sim = with_gains(sim, servos)
     model = sim.mj
     data = mujoco.MjData(model)
-    servo = np.stack([model.actuator_gainprm[:, 0], -model.actuator_biasprm[:, 2]]) if feedforward else None
+    servo = sim.servo_gains() if feedforward else None
     reference = _reference_joints(motion, model.opt.timestep, reference_cutoff_hz, servo)
     t0 = float(motion.t[0])
     _placed_on_floor(sim, data, motion.q[0])
     gains = (gains or gains_for(motion)) if stabilizer else None
     control = None if gains is None else Stabilizer(sim, motion, gains)
+    channel = CommandChannel(servos, model.opt.timestep, sim.robot.nu)
     every = max(int(round(record_dt / model.opt.timestep)), 1)
     n_settle = int(round(settle / model.opt.timestep))
     n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
@@ -165,12 +172,12 @@ def simulate(
         command = reference(max(time, t0))
         if control is not None:
             command = command + control.correction(data, max(time, t0))
-        data.ctrl[:] = command
+        sim.command(data, channel(command))
         if i >= n_settle and (i - n_settle) % every == 0:
             rows["t"].append(time - t0)
             rows["q"].append(sim.q(data.qpos))
             rows["v"].append(sim.v(data.qpos, data.qvel))
-            rows["tau"].append(data.actuator_force.copy())
+            rows["tau"].append(sim.joint_torques(data))
             rows["wrenches"].append(sim.sole_wrenches(data))
             rows["qpos"].append(data.qpos.copy())
         if data.qpos[2] < FALL_HEIGHT_RATIO * start_height or _tilt(data.qpos[3:7]) > FALL_TILT:
@@ -178,6 +185,7 @@ def simulate(
             break
         mujoco.mj_step(model, data)
     measured = _measured_motion(sim, motion, rows, gains, reference_cutoff_hz, feedforward, fell, fall_time)
+    measured.meta["servos"] = servos.as_dict()
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
@@ -218,6 +226,7 @@ def _measured_motion(sim: SimModel, reference: Motion, rows: dict, gains: Stabil
             "fell": fell,
             "fall_time_s": fall_time,
             "timestep_s": float(sim.mj.opt.timestep),
+            "sim_model": sim.source,
             "contact_time_constant_s": sim.contact_time_constant,
         },
     )

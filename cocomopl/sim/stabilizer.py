@@ -169,7 +169,7 @@ class Stabilizer:
                 out[roles["hip_pitch"]] = ATTITUDE_GAIN * error[1] + ATTITUDE_RATE_GAIN * rate[1]
                 moment = self.forces[k, j] * np.array([shift[1], -shift[0]])  # of the sole's CoP moved by shift
                 target = self.tau[k, ankles] + self.moments[k, j, ankles] @ moment
-                torque_error = data.actuator_force[ankles] - target
+                torque_error = self.sim.joint_torques(data)[ankles] - target
                 self.ankles[ankles] += self.dt * (-torque_error / self.ankle_damping - self.ankles[ankles] / ANKLE_LEAK)
             else:
                 self.ankles[ankles] -= self.dt * self.ankles[ankles] / SWING_LEAK
