@@ -62,6 +62,7 @@ class SimModel:
     held_actuators: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     held_commands: np.ndarray = field(default_factory=lambda: np.zeros(0))
     source: str = "built from the robot description"
+    spec: mujoco.MjSpec | None = None  # what ``mj`` was compiled from, to add to (floor bumps)
 
     def __post_init__(self):
         nu = self.robot.nu
@@ -297,7 +298,8 @@ def build_sim_model(robot: Robot, visuals: bool = True, contact_time_constant: f
     if contact_time_constant is None:
         contact_time_constant = CONTACT_TIME_CONSTANT
     check_contact_time_constant(contact_time_constant)
-    mj = mujoco.MjModel.from_xml_string(mjcf(robot, visuals, contact_time_constant))
+    spec = mujoco.MjSpec.from_string(mjcf(robot, visuals, contact_time_constant))
+    mj = spec.compile()
     names = [mj.joint(j).name for j in range(1, mj.njnt)]
     if names != robot.joint_names or mj.nu != robot.nu:
         raise RuntimeError("MuJoCo joint order differs from the robot's")  # a bug, not user input
@@ -308,6 +310,7 @@ def build_sim_model(robot: Robot, visuals: bool = True, contact_time_constant: f
         sole_sites={side: mj.site(f"{side}_sole").id for side in SIDES},
         base_body=mj.body(robot.model.names[1]).id,
         contact_time_constant=contact_time_constant,
+        spec=spec,
     )
 
 
@@ -359,6 +362,7 @@ def load_sim_model(robot: Robot, path: str | Path, contact_time_constant: float 
     _drive(spec, mj, robot, path)
     mj = _compiled(spec, path)
     sim = _sim_of(mj, robot, contact_time_constant or CONTACT_TIME_CONSTANT, feet, str(path))
+    sim.spec = spec
     _check_soles(sim, path)
     return sim
 

@@ -16,7 +16,8 @@ wrenches.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
 
 import mujoco
 import numpy as np
@@ -28,6 +29,7 @@ from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
+from cocomopl.sim.perturbations import Push
 from cocomopl.sim.servos import CommandChannel, ServoSettings, with_gains
 from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, gains_for
 
@@ -123,6 +125,7 @@ def simulate(
     gains: StabilizerGains | None = None,
     feedforward: bool = False,
     servos: ServoSettings | None = None,
+    pushes: Sequence[Push] = (),
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -144,6 +147,8 @@ def simulate(
         rather than sag and lag
     servos : per-group servo gains, control latency and encoder noise
         (:class:`~cocomopl.sim.servos.ServoSettings`); default the model's servos, ideal
+    pushes : forces on the pelvis (:class:`~cocomopl.sim.perturbations.Push`), timed from the
+        motion's start
 
     Returns
     -------
@@ -173,6 +178,8 @@ def simulate(
         if control is not None:
             command = command + control.correction(data, max(time, t0))
         sim.command(data, channel(command))
+        if pushes:
+            data.xfrc_applied[sim.base_body, :3] = sum(push.force_at(time - t0) for push in pushes)
         if i >= n_settle and (i - n_settle) % every == 0:
             rows["t"].append(time - t0)
             rows["q"].append(sim.q(data.qpos))
@@ -186,6 +193,7 @@ def simulate(
         mujoco.mj_step(model, data)
     measured = _measured_motion(sim, motion, rows, gains, reference_cutoff_hz, feedforward, fell, fall_time)
     measured.meta["servos"] = servos.as_dict()
+    measured.meta["pushes"] = [asdict(push) for push in pushes]
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
