@@ -89,7 +89,8 @@ class Perturbation:
         )
 
 
-BUMPS = 12  # boxes on the floor under a walk, from 0.1 m ahead of the start
+BUMPS = 12  # boxes on the floor under a walk
+BUMP_START_M = 0.2  # where the first begins: ahead of the soles the robot starts on
 BUMP_SPACING_M = 0.3
 BUMP_SIZE_M = 0.1  # half length of a bump: 0.2 m long, 0.1 m gaps; a sole lands on one, on its edge, or between
 
@@ -144,6 +145,7 @@ def _with_bumps(sim, heights: np.ndarray) -> mujoco.MjModel:
     bumps = spec.worldbody.add_body(name="cocomopl_bumps")
     for k, height in enumerate(heights):
         bumps.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[BUMP_SIZE_M, 0.3, height / 2 + 1e-4],
-                       pos=[0.1 + BUMP_SPACING_M * k, 0.0, height / 2 - 1e-4], friction=[1.0, 0.005, 0.0001],
+                       pos=[BUMP_START_M + BUMP_SIZE_M + BUMP_SPACING_M * k, 0.0, height / 2 - 1e-4],
+                       friction=[1.0, 0.005, 0.0001],
                        rgba=[0.5, 0.4, 0.3, 1])
     return spec.compile()
