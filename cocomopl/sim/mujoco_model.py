@@ -361,7 +361,10 @@ def load_sim_model(robot: Robot, path: str | Path, contact_time_constant: float 
         _add_sole(spec, robot, side, joint, solref)
     _drive(spec, mj, robot, path)
     mj = _compiled(spec, path)
-    sim = _sim_of(mj, robot, contact_time_constant or CONTACT_TIME_CONSTANT, feet, str(path))
+    if contact_time_constant is None:  # what the floor has: the file's, or the project's if it had none
+        floor = np.flatnonzero(mj.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)[0]
+        contact_time_constant = float(mj.geom_solref[floor, 0])
+    sim = _sim_of(mj, robot, contact_time_constant, feet, str(path))
     sim.spec = spec
     _check_soles(sim, path)
     return sim
