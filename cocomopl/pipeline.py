@@ -85,7 +85,7 @@ def generate_walk(
     ``model_path`` defaults to the bundled model (for footsteps and goals, the bundled
     omnidirectional one) and ``dt`` (s) to ``PLAN_DT``.  Steps
     outside the training support are warned about (``warnings``), or refused with
-    ``strict``.  So is a walk that the dynamics filter could not make consistent (its ZMP
+    ``strict``, with which a goal's walk is planned within the support.  So is a walk that the dynamics filter could not make consistent (its ZMP
     more than ``FILTER_WARNING_M`` RMS from the learned one): most such walks fall.
     """
     if sum(x is not None for x in (lengths, landings, goal)) != 1:
@@ -102,7 +102,9 @@ def generate_walk(
     elif landings is not None:
         specs = walk_specs(robot, landings)
     else:
-        specs = plan_through(robot, goal_list(goal), model.footstep_range())
+        # strict: plan only walks whose every step lies within the training support
+        supported = (lambda specs: all(step.in_support for step in model.predict_many(specs))) if strict else None
+        specs = plan_through(robot, goal_list(goal), model.footstep_range(), supported)
     dt = PLAN_DT if dt is None else check_plan_dt(dt)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)

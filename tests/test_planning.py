@@ -179,3 +179,31 @@ def test_generate_walks_a_footstep_file_and_reports_its_landings(tmp_path):
     payload = json.loads(result.stdout)
     assert [r["step"] for r in payload["steps"]] == ["start_200_L", "stop_200_R"]
     assert [(p["x_m"], p["y_m"], p["side"]) for p in payload["footsteps"]] == [(0.2, 0.085, "left"), (0.4, -0.085, "right")]
+
+
+def test_a_plan_a_further_test_refuses_gives_way_to_the_next(robot):
+    goal = (0.6, 0.0, math.radians(60.0))
+    first = plan_to_goal(robot, goal)
+    steepest = max(abs(s.end_footstep.turn) for s in first if s.kind != "stop")
+
+    def gentle(specs):
+        return all(abs(s.end_footstep.turn) < steepest - 1e-6 for s in specs if s.kind != "stop")
+
+    second = plan_to_goal(robot, goal, accept=gentle)
+    assert gentle(second) and len(second) > len(first)  # more steps, each turning less
+    end = midpoint(soles_after(robot, second))
+    assert np.hypot(end[0] - goal[0], end[1] - goal[1]) < 1e-3 and abs(wrap_angle(end[2] - goal[2])) < 1e-3
+    with pytest.raises(Error, match="the model's support"):
+        plan_to_goal(robot, goal, accept=lambda specs: False)
+
+
+def test_strict_plans_a_goal_within_the_models_support():
+    """Seed 6's random goal -0.352, 0.092, -58.8 deg: the bundled model's plan starts with a
+    step 0.14 away from its training steps; with strict the planner finds one within."""
+    from cocomopl.pipeline import generate_walk
+
+    goal = (-0.352, 0.092, math.radians(-58.8))
+    loose = generate_walk(goal=goal)
+    assert not all(step.in_support for step in loose.steps) and loose.warnings
+    strict = generate_walk(goal=goal, strict=True)
+    assert all(step.in_support for step in strict.steps)

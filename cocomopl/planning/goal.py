@@ -17,7 +17,7 @@ footstep clear of collision, is the plan.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -68,7 +68,8 @@ def _solve(robot: Robot, goal: np.ndarray, n: int, lead: str, limits: dict) -> t
     return tuple(float(v) for v in np.clip(fit.x, low, high))
 
 
-def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | None = None) -> list[StepSpec]:
+def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | None = None,
+                 accept: Callable[[list[StepSpec]], bool] | None = None) -> list[StepSpec]:
     """The steps of the fewest-landing steady gait whose feet end at ``goal``.
 
     Parameters
@@ -77,6 +78,8 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | 
         from the feet side by side at the origin facing +x
     limits : (low, high) per footstep ``"length"``, ``"width"``, ``"turn"`` the plan must
         keep within (default: :data:`~cocomopl.gait.FOOTSTEP_RANGE`); a model's learned range
+    accept : a further test a plan must pass, e.g. that a model has learned steps near all of
+        its steps (``generate --strict``); a plan it refuses gives way to the next
 
     Raises
     ------
@@ -96,25 +99,27 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | 
             if gait is None:
                 continue
             specs = gait_specs(n, lead, *gait)
-            if _clear(robot, specs):
+            if _clear(robot, specs) and (accept is None or accept(specs)):
                 return specs
     raise Error(
         f"no steady walk of up to {MAX_LANDINGS} steps reaches ({goal[0]:g} m, {goal[1]:g} m, "
         f"{math.degrees(goal[2]):g} deg) within the footstep range "
+        + ("and the model's support " if accept is not None else "")
         + ", ".join(f"{k} {_shown(k, lo)}..{_shown(k, hi)}" for k, (lo, hi) in limits.items())
         + (" (a model of straight steps: it reaches goals straight ahead only)"
            if limits["width"] == (0.0, 0.0) and limits["turn"] == (0.0, 0.0) else "")
     )
 
 
-def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], limits: dict | None = None) -> list[StepSpec]:
+def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], limits: dict | None = None,
+                 accept: Callable[[list[StepSpec]], bool] | None = None) -> list[StepSpec]:
     """The walks of :func:`plan_to_goal` to each of ``goals`` in turn: the robot stops at
     every goal, feet side by side, and walks on from there to the next.
 
     ``goals`` are world poses (x, y, yaw) of the feet's midpoint and heading (m, rad); each
     walk is planned from where the planned walk before it ends (within
     ``POSITION_TOLERANCE_M`` and ``YAW_TOLERANCE_RAD`` of its goal), so the plan's error does
-    not add up over the goals.
+    not add up over the goals.  ``accept`` as :func:`plan_to_goal`'s.
     """
     if not goals:
         raise Error("a walk through goals needs at least one goal")
@@ -123,7 +128,7 @@ def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], limi
         here = midpoint(soles_after(robot, specs)) if specs else np.zeros(3)
         c, s = math.cos(here[2]), math.sin(here[2])
         dx, dy = goal[0] - here[0], goal[1] - here[1]
-        specs += plan_to_goal(robot, (c * dx + s * dy, -s * dx + c * dy, wrap_angle(goal[2] - here[2])), limits)
+        specs += plan_to_goal(robot, (c * dx + s * dy, -s * dx + c * dy, wrap_angle(goal[2] - here[2])), limits, accept)
     return specs
 
 
