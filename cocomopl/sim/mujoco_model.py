@@ -205,15 +205,19 @@ def _body(robot: Robot, jid: int, visual, meshes: dict[str, tuple[Path, np.ndarr
     return f'<body name="{model.names[jid]}" {_pose(model.jointPlacements[jid])}>\n' + "\n".join(parts) + "\n</body>"
 
 
-def _actuators(robot: Robot) -> str:
-    lines = []
+def _servos(robot: Robot):
+    """Per actuated joint, the project's position servo: name, kp, kv, torque limit, command range."""
     for name, tau, lower, upper in zip(robot.joint_names, robot.tau_max, robot.q_lower, robot.q_upper):
         kp = tau / FULL_TORQUE_ERROR
-        lines.append(
-            f'<position name="{name}" joint="{name}" kp="{kp:.6g}" kv="{kp * SERVO_DAMPING_TIME:.6g}" '
-            f'forcerange="{-tau:.6g} {tau:.6g}" ctrlrange="{lower:.9g} {upper:.9g}"/>'
-        )
-    return "\n".join(lines)
+        yield name, kp, kp * SERVO_DAMPING_TIME, tau, (lower, upper)
+
+
+def _actuators(robot: Robot) -> str:
+    return "\n".join(
+        f'<position name="{name}" joint="{name}" kp="{kp:.6g}" kv="{kv:.6g}" '
+        f'forcerange="{-tau:.6g} {tau:.6g}" ctrlrange="{limits[0]:.9g} {limits[1]:.9g}"/>'
+        for name, kp, kv, tau, limits in _servos(robot)
+    )
 
 
 def _mesh_assets(visual: pin.GeometryModel, meshes: dict[str, tuple[Path, np.ndarray]], mesh_folder: str | None) -> str:
@@ -324,9 +328,9 @@ def load_sim_model(robot: Robot, path: str | Path, contact_time_constant: float 
     used as given: each of the robot's joints needs a position servo (``<position>``, or a
     general actuator with a fixed gain and an affine bias of the same form), and one without a
     torque limit gets the URDF's; a file with no actuator at all gets the project's servos
-    (:func:`build_sim_model`).  Joints the robot does
-    not have (head, grippers) are held where the file's reference posture puts them: by their
-    servo if they have one, else by a joint equality.  A foot body with no geom that collides
+    (:func:`build_sim_model`).  Joints the robot does not have (head, grippers) are held where
+    the file's reference posture puts them: by their servo if they have one, else by a joint
+    equality.  A foot body with no geom that collides
     gets the description's sole box; each sole gets a site at the sole frame.  A file with no
     floor plane gets the project's floor.  ``contact_time_constant`` (s), if given, sets the
     floor's and the soles' contact softness (``solref``); else the file's stand and the geoms
@@ -418,12 +422,11 @@ def _drive(spec: mujoco.MjSpec, mj: mujoco.MjModel, robot: Robot, path: Path) ->
     """Servos for the robot's joints (the project's, if the file has no actuator) and holds
     for the file's other joints."""
     if mj.nu == 0:
-        for name, tau, lower, upper in zip(robot.joint_names, robot.tau_max, robot.q_lower, robot.q_upper):
-            kp = tau / FULL_TORQUE_ERROR
+        for name, kp, kv, tau, limits in _servos(robot):
             actuator = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            actuator.set_to_position(kp=kp, kv=kp * SERVO_DAMPING_TIME)
+            actuator.set_to_position(kp=kp, kv=kv)
             actuator.forcelimited, actuator.forcerange = mujoco.mjtLimited.mjLIMITED_TRUE, [-tau, tau]
-            actuator.ctrllimited, actuator.ctrlrange = mujoco.mjtLimited.mjLIMITED_TRUE, [lower, upper]
+            actuator.ctrllimited, actuator.ctrlrange = mujoco.mjtLimited.mjLIMITED_TRUE, list(limits)
         mj = _compiled(spec, path)
     servos = _joint_servos(mj)
     missing = [name for name in robot.joint_names if name not in servos]
