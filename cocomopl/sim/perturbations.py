@@ -13,14 +13,13 @@ noise) are :mod:`cocomopl.sim.servos`'.
 from __future__ import annotations
 
 import copy
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from cocomopl.errors import Error
-
-GRAVITY = 9.81
+from cocomopl.sim.mujoco_model import FRICTION
 
 
 @dataclass(frozen=True)
@@ -71,9 +70,6 @@ class Perturbation:
                 raise Error(f"perturbation {name} {value!r} is outside 0 to {most:g}")
         if self.floor_friction is not None and not 0.05 <= self.floor_friction[0] <= self.floor_friction[1] <= 3.0:
             raise Error(f"floor friction {self.floor_friction!r} must be (low, high) within 0.05 to 3")
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
     def draw(self, rng: np.random.Generator, nbody: int, ndof: int) -> World:
         """One world: per-link and per-joint values for a model of ``nbody`` bodies and ``ndof`` dofs."""
@@ -129,7 +125,7 @@ def perturbed(sim, world: World):
         mj.geom_friction[floor, 0] = world.floor_friction
     # a floor tilted by (roll, pitch) is gravity tilted by the opposite, the floor kept flat
     roll, pitch = world.tilt_rad
-    mj.opt.gravity[:] = GRAVITY * np.array([np.sin(pitch) * np.cos(roll), -np.sin(roll), -np.cos(pitch) * np.cos(roll)])
+    mj.opt.gravity[:] = np.linalg.norm(sim.mj.opt.gravity) * np.array([np.sin(pitch) * np.cos(roll), -np.sin(roll), -np.cos(pitch) * np.cos(roll)])
     return out
 
 
@@ -146,6 +142,6 @@ def _with_bumps(sim, heights: np.ndarray) -> mujoco.MjModel:
     for k, height in enumerate(heights):
         bumps.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[BUMP_SIZE_M, 0.3, height / 2 + 1e-4],
                        pos=[BUMP_START_M + BUMP_SIZE_M + BUMP_SPACING_M * k, 0.0, height / 2 - 1e-4],
-                       friction=[1.0, 0.005, 0.0001],
+                       friction=[FRICTION, 0.005, 0.0001],
                        rgba=[0.5, 0.4, 0.3, 1])
     return spec.compile()

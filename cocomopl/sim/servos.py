@@ -66,11 +66,6 @@ class ServoSettings:
         if not 0.0 <= self.encoder_noise_rad <= MAX_ENCODER_NOISE_RAD:
             raise Error(f"encoder noise {self.encoder_noise_rad!r} rad is outside 0 to {MAX_ENCODER_NOISE_RAD:g} rad")
 
-    @property
-    def ideal(self) -> bool:
-        """Whether these are the model's own servos, ideal in time and reading."""
-        return not (self.kp_scale or self.kv_time_s or self.latency_s or self.encoder_noise_rad)
-
     def as_dict(self) -> dict:
         return asdict(self)
 
