@@ -277,7 +277,7 @@ def _on_warm_up_knots(robot, walk, length: float, settings) -> tuple[np.ndarray,
     from cocomopl.ocp.solve import warm_up_plan
 
     plan = warm_up_plan(robot, length, settings)
-    xs, us = warm_start(walk_guess(robot, walk), plan.phases, plan.x0, settings.dt)
+    xs, us = warm_start(robot, walk_guess(robot, walk), plan.phases, plan.x0, settings.dt)
     return np.array(xs), us
 
 

@@ -125,7 +125,7 @@ def test_the_models_walk_lies_on_the_warm_up_walks_knots_from_rest_to_its_footst
 
     settings, length = OCPSettings(), 0.23
     plan = warm_up_plan(robot, length, settings)
-    xs, us = warm_start(walk_guess(robot, generate_walk([length] * 4).motion), plan.phases, plan.x0, settings.dt)
+    xs, us = warm_start(robot, walk_guess(robot, generate_walk([length] * 4).motion), plan.phases, plan.x0, settings.dt)
     assert len(xs) == state_count(plan.phases) and len(us) == len(xs) - 1
     np.testing.assert_array_equal(xs[0], plan.x0)
     data = robot.model.createData()

@@ -13,6 +13,8 @@ from cocomopl.analysis.feasibility import check_motion
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
+from cocomopl.ocp.contact_controls import inverse_dynamics_controls
+from cocomopl.ocp.problems import build_problem
 from cocomopl.ocp.refine import check_refinable, cold_solve, refine_walk, solve_warm, torque_cost
 from cocomopl.ocp.solve import step_plan
 from cocomopl.pipeline import generate_walk
@@ -38,6 +40,28 @@ def test_a_warm_start_converges_in_fewer_iterations_than_cold_at_no_higher_cost(
     assert warm.stats["converged"] and cold.stats["converged"]
     assert warm.stats["iterations"] < cold.stats["iterations"]
     assert warm.stats["cost"] <= 1.005 * cold.stats["cost"]
+    # the solver's own model confirms an optimum at once: one iteration, and one to test it
+    assert warm.stats["iterations"] <= 2
+
+
+def test_a_solved_steps_states_are_realised_by_inverse_dynamics_inside_its_cones(robot, small_dataset):
+    motions, _ = read_motions(small_dataset)
+    cyclic = motions[StepSpec("cyclic", SMALL_LENGTH, SMALL_LENGTH).name]
+    states = [np.concatenate([q, v]) for q, v in zip(cyclic.q, cyclic.v)]
+    problem = build_problem(robot, step_plan(robot, cyclic.steps[0], {SMALL_LENGTH: states[0]}, SMALL), SMALL)
+    controls = inverse_dynamics_controls(robot, problem, states)
+    problem.calc(states, controls)
+    for k, (knot, data) in enumerate(zip(problem.runningModels, problem.runningDatas)):
+        # the knot's own dynamics take each state to the next: no gap for the solver to close
+        assert np.abs(knot.state.diff(states[k + 1], data.xnext)).max() < 1e-6
+        if hasattr(data, "differential"):
+            cones = [c for name, c in data.differential.costs.costs.todict().items() if name.endswith("wrench_cone")]
+            assert cones and all(c.cost < 1e-6 for c in cones)
+    # one sole down, the wrench is unique: the solution's own torques come back
+    single = [k for k, knot in enumerate(problem.runningModels)
+              if hasattr(knot, "differential") and len(knot.differential.contacts.contacts.todict()) == 1]
+    assert len(single) > 5
+    np.testing.assert_allclose([controls[k] for k in single], cyclic.tau[single], atol=1e-5 * robot.tau_max.max())
 
 
 def test_a_refined_walk_keeps_its_steps_and_obeys_the_dynamics(robot, walk):

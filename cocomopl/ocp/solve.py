@@ -9,6 +9,7 @@ with their ends pinned to those states, so that consecutive steps join.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import crocoddyl
@@ -69,12 +70,18 @@ def initial_states(robot: Robot, plan: StepPlan, settings: OCPSettings, guess: s
     return xs
 
 
+Controls = list[np.ndarray] | Callable[[crocoddyl.ShootingProblem, list[np.ndarray]], list[np.ndarray]] | None
+
+
 def prepared_problem(
-    robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list[np.ndarray], us: list[np.ndarray] | None = None
+    robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list[np.ndarray], us: Controls = None
 ) -> tuple[crocoddyl.ShootingProblem, crocoddyl.SolverBoxFDDP, list[np.ndarray], list[np.ndarray]]:
     """The plan's problem, its box-FDDP solver (torque limits are hard bounds) and the initial
-    guess in the solver's state: states ``xs`` and controls ``us`` (None: quasi-static)."""
+    guess in the solver's state: states ``xs`` and controls ``us`` (None: quasi-static; a
+    function: of the problem and the states)."""
     problem = build_problem(robot, plan, settings)
+    if callable(us):
+        us = us(problem, xs)
     quasi_static = problem.quasiStatic(xs[:-1]) if us is None else None
     us = quasi_static if us is None else [np.asarray(u) for u in us]
     solver_problem = problem
