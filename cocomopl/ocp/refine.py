@@ -55,7 +55,15 @@ from cocomopl.ocp.problems import (
     walk_phases,
 )
 from cocomopl.ocp.settings import OCPSettings
-from cocomopl.ocp.solve import Controls, Solution, failed_checks, prepared_problem, resting_at_the_end, solution_of, to_motion
+from cocomopl.ocp.solve import (
+    Controls,
+    Solution,
+    failed_checks,
+    prepared_problem,
+    resting_at_the_end,
+    solution_of,
+    to_motion,
+)
 from cocomopl.robot import Robot, mirror_joints, mirror_motion, mirror_state
 
 START_BLEND_S = 0.4  # s over which a warm start moves from its pinned start onto the generated step
