@@ -99,6 +99,12 @@ def _footstep_file(text: str) -> list:
     return _checked(read_landings, text)
 
 
+def _push(text: str):
+    from cocomopl.sim.perturbations import parse_push
+
+    return _checked(parse_push, text)
+
+
 def _existing_file(text: str) -> Path:
     if not Path(text).is_file():
         raise argparse.ArgumentTypeError(f"no file {text!r}")
@@ -438,7 +444,7 @@ def cmd_walk(args) -> int:
                           reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
                           strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data,
                           feedforward=args.feedforward, sim_model=args.sim_model, servos=_servo_settings(args),
-                          **request)
+                          pushes=args.push, recover=args.recover, **request)
     for message in payload["warnings"]:
         _warn(message)
     lines = [f"walk {label}: "
@@ -449,9 +455,18 @@ def cmd_walk(args) -> int:
              _metrics_table(payload),
              *([f"ended {100 * payload['final_position_error_m']:.1f} cm and {payload['final_yaw_error_deg']:.1f} deg from the goal"]
                if "goal" in payload else []),
+             *([_recovery_line(payload["recoveries"])] if args.recover else []),
              f"report in {out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
     _emit(args, payload, "\n".join(lines))
     return 1 if payload["fell"] else 0
+
+
+def _recovery_line(changes: list[dict]) -> str:
+    if not changes:
+        return "recovery by stepping: no landing moved"
+    moves = "; ".join(f"landing {c['landing'] + 1} moved {100 * c['shift_m'][0]:+.1f}, {100 * c['shift_m'][1]:+.1f} cm "
+                      f"at {c['time_s']:.2f} s" for c in changes)
+    return f"recovery by stepping: {moves}"
 
 
 def cmd_reproduce(args) -> int:
@@ -749,6 +764,12 @@ def _simulation_parsers(sub) -> None:
     walk.add_argument("--out", default="cocomopl-walk", metavar="DIR", help="report folder (default: %(default)s)")
     _servo_options(walk)
     walk.add_argument("--no-video", action="store_true", help="skip the MP4 (saves about 15 s)")
+    walk.add_argument("--push", type=_push, action="append", default=[], metavar="AT_S,FX_N,FY_N",
+                      help="push the pelvis for 0.1 s, AT_S seconds after the walk starts, with FX_N, FY_N newtons "
+                      "(world axes: x forward, y left); may be given again")
+    walk.add_argument("--recover", action="store_true",
+                      help="recovery by stepping: a push the stabilizer cannot absorb moves the swing foot's landing, "
+                      "and the walk is generated again from there (docs/method.md#recovery-by-stepping)")
     _refine_options(walk)
     _simulation_options(walk)
     _json_option(walk)

@@ -56,6 +56,21 @@ class GeneratedWalk:
     warnings: list[str] = field(default_factory=list)
 
 
+def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
+    """Recovery by stepping for ``walk`` (:class:`~cocomopl.sim.recovery.StepRecovery`): its
+    own model generates it again, on its landings with one moved, placed every ``dt`` s; a
+    moved footstep stays within the model's footstep range (a straight model's: forward only)."""
+    from cocomopl.sim.recovery import StepRecovery
+
+    def generate(landings: Sequence[Landing]) -> Motion:
+        motion = place_steps(walk.robot, generate_steps(walk.model, walk_specs(walk.robot, landings)), dt)
+        motion.meta["footsteps"] = [landing.as_dict() for landing in landings]
+        return motion
+
+    landings = landings_of(walk.robot, walk.motion.steps)
+    return StepRecovery(walk.robot, landings, walk.motion, generate, walk.model.footstep_range())
+
+
 def check_plan_dt(dt: float) -> float:
     """``dt`` (s) if it is a sample spacing for a generated walk within ``PLAN_DT_RANGE``, else :class:`Error`."""
     low, high = PLAN_DT_RANGE
@@ -186,16 +201,19 @@ def simulate_walk(
     feedforward: bool = False,
     sim_model: str | Path | None = None,
     servos=None,
+    pushes=(),
+    recovery=None,
 ):
     """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
 
-    Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference.
+    Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference
+    (the walk it ended up following, where ``recovery`` replanned it).
     """
     from cocomopl.analysis.metrics import summary
 
     rollout = rollout_of(robot, motion, stabilizer, video, progress, contact_time_constant, reference_cutoff_hz, gains,
-                         feedforward, sim_model, servos)
-    return rollout, summary(robot, rollout.measured, motion)
+                         feedforward, sim_model, servos, pushes, recovery)
+    return rollout, summary(robot, rollout.measured, motion if recovery is None else recovery.motion)
 
 
 def rollout_of(
@@ -210,6 +228,8 @@ def rollout_of(
     feedforward: bool = False,
     sim_model: str | Path | None = None,
     servos=None,
+    pushes=(),
+    recovery=None,
 ):
     """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo; with ``video``, also
     rendered there (MP4).  ``sim_model`` is a MuJoCo model file of the robot made elsewhere
@@ -220,7 +240,8 @@ def rollout_of(
     (default: the model's), ``reference_cutoff_hz`` the reference's low-pass (default: the
     rollout's; 0: none), ``gains`` the stabilizer's
     (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default: those tuned for the
-    motion's generator), ``feedforward`` the servos' torque feedforward from the plan
+    motion's generator), ``feedforward`` the servos' torque feedforward from the plan,
+    ``pushes`` forces on the pelvis and ``recovery`` recovery by stepping (:func:`recovery_for`)
     (:func:`~cocomopl.sim.rollout.simulate`)."""
     from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
@@ -232,7 +253,7 @@ def rollout_of(
         sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
     cutoff = REFERENCE_CUTOFF_HZ if reference_cutoff_hz is None else reference_cutoff_hz
     rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains,
-                       feedforward=feedforward, servos=servos)
+                       feedforward=feedforward, servos=servos, pushes=pushes, recovery=recovery)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout
@@ -258,6 +279,8 @@ def walk_report(
     feedforward: bool = False,
     sim_model: str | Path | None = None,
     servos=None,
+    pushes=(),
+    recover: bool = False,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -273,7 +296,9 @@ def walk_report(
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
     written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
     interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
-    :func:`generate_walk`'s; ``feedforward``, ``sim_model`` and ``servos`` as :func:`rollout_of`'s.
+    :func:`generate_walk`'s; ``feedforward``, ``sim_model``, ``servos`` and ``pushes`` as
+    :func:`rollout_of`'s.  With ``recover`` a push the stabilizer cannot absorb moves a landing
+    and the walk is generated again (:func:`recovery_for`; the report's ``recoveries``).
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -282,6 +307,9 @@ def walk_report(
 
     started = time.perf_counter()
     # missing inputs are refused before anything is written
+    if recover and (refine_steps or not stabilizer):
+        raise Error("recovery by stepping needs the stabilizer, and replans with the primitives: "
+                    "it cannot be combined with --no-stabilizer or --refine")
     omni = lengths is None
     dataset = bundled_dataset_path(dataset, omni) if refine_steps else None
     provenance = walk_provenance(command, model_path, omni, dataset=dataset)
@@ -291,11 +319,14 @@ def walk_report(
         if refine_steps:
             refined_walk, refined = refine(walk.motion, dataset, progress)
             planned["refined"] = refined_walk.motion
+        recovery = recovery_for(walk, dt or PLAN_DT) if recover else None
         rollout, metrics = simulate_walk(
             walk.robot, planned["refined" if refine_steps else "generated"], stabilizer,
             work / "walk.mp4" if video else None, progress, contact_time_constant, reference_cutoff_hz,
-            feedforward=feedforward, sim_model=sim_model, servos=servos,
+            feedforward=feedforward, sim_model=sim_model, servos=servos, pushes=pushes, recovery=recovery,
         )
+        if recovery is not None and recovery.replanned:
+            planned["replanned"] = recovery.motion
         motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
@@ -315,6 +346,8 @@ def walk_report(
             "servos": rollout.measured.meta["servos"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
             "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
+            "pushes": rollout.measured.meta["pushes"],
+            **({"recoveries": rollout.measured.meta["recoveries"]} if recover else {}),
             **metrics,
             "generation_s": walk.generation_s,
             "placement_s": walk.placement_s,

@@ -13,6 +13,7 @@ noise) are :mod:`cocomopl.sim.servos`'.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field
 
 import mujoco
@@ -35,6 +36,22 @@ class Push:
         """The force (3,) at ``time`` (s after the motion's start)."""
         on = self.time_s <= time < self.time_s + self.duration_s
         return np.array([*self.force_n, 0.0]) if on else np.zeros(3)
+
+
+MAX_PUSH_N = 5000.0  # a larger force is a typing error, not a push
+
+
+def parse_push(text: str) -> Push:
+    """A :class:`Push` from ``"AT_S,FX_N,FY_N"``; an :class:`Error` in one line unless it is
+    three finite numbers with the time 0 or more and the force within ``MAX_PUSH_N``."""
+    parts = text.split(",")
+    try:
+        at, fx, fy = (float(p) for p in parts)
+    except ValueError:
+        raise Error(f"push {text!r} must be three numbers: AT_S,FX_N,FY_N") from None
+    if not (math.isfinite(at) and at >= 0 and math.isfinite(fx) and math.isfinite(fy) and math.hypot(fx, fy) <= MAX_PUSH_N):
+        raise Error(f"push {text!r}: the time must be 0 s or more and the force at most {MAX_PUSH_N:g} N")
+    return Push(at, (fx, fy))
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
 from cocomopl.sim.perturbations import Push
+from cocomopl.sim.recovery import StepRecovery
 from cocomopl.sim.servos import CommandChannel, ServoSettings, with_gains
 from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, gains_for
 
@@ -41,6 +42,7 @@ CONTACT_FORCE = 1.0  # N: a sole with less than this is in the air
 # Measured on 20 random walks of seeds 0 and 1 with the stabilizer, the median peak force
 # went from 1.51 and 1.45 to 1.36 and 1.37 x weight; README "Stage 3" has the rest.
 REFERENCE_CUTOFF_HZ = 15.0
+RECOVERY_BLEND_S = 0.1  # s over which the commands move onto a walk replanned by recovery
 
 
 @dataclass
@@ -126,6 +128,7 @@ def simulate(
     feedforward: bool = False,
     servos: ServoSettings | None = None,
     pushes: Sequence[Push] = (),
+    recovery: StepRecovery | None = None,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -149,6 +152,9 @@ def simulate(
         (:class:`~cocomopl.sim.servos.ServoSettings`); default the model's servos, ideal
     pushes : forces on the pelvis (:class:`~cocomopl.sim.perturbations.Push`), timed from the
         motion's start
+    recovery : recovery by stepping (:class:`~cocomopl.sim.recovery.StepRecovery`, needs the
+        stabilizer): where a push carries the capture point off the stance sole, the walk is
+        generated again with the swing foot's landing moved, and followed from then on
 
     Returns
     -------
@@ -165,6 +171,8 @@ def simulate(
     _placed_on_floor(sim, data, motion.q[0])
     gains = (gains or gains_for(motion)) if stabilizer else None
     control = None if gains is None else Stabilizer(sim, motion, gains)
+    if recovery is not None and control is None:
+        raise Error("recovery by stepping needs the stabilizer")
     channel = CommandChannel(servos, model.opt.timestep, sim.robot.nu)
     every = max(int(round(record_dt / model.opt.timestep)), 1)
     n_settle = int(round(settle / model.opt.timestep))
@@ -172,11 +180,21 @@ def simulate(
     start_height = float(data.qpos[2])
     rows: dict[str, list] = {k: [] for k in ("t", "q", "v", "tau", "wrenches", "qpos")}
     fell, fall_time = False, None
-    for i in tqdm(range(n_total + 1), desc="simulating", unit="ms", disable=not progress, leave=False):
+    bar = tqdm(total=n_total + 1, desc="simulating", unit="ms", disable=not progress, leave=False)
+    i = 0
+    while i <= n_total:
         time = t0 + (i - n_settle) * model.opt.timestep
         command = reference(max(time, t0))
         if control is not None:
             command = command + control.correction(data, max(time, t0))
+        if recovery is not None and time >= t0 and i % every == 0:
+            replanned = _recovered(sim, data, control, recovery, time - t0)
+            if replanned is not None:
+                reference = _blended(reference, _reference_joints(replanned, model.opt.timestep, reference_cutoff_hz, servo),
+                                     time, RECOVERY_BLEND_S)
+                control.follow(replanned)
+                motion = replanned
+                n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
         sim.command(data, channel(command))
         if pushes:
             data.xfrc_applied[sim.base_body, :3] = sum(push.force_at(time - t0) for push in pushes)
@@ -191,10 +209,40 @@ def simulate(
             fell, fall_time = True, max(time - t0, 0.0)
             break
         mujoco.mj_step(model, data)
+        i += 1
+        bar.update()
+    bar.close()
     measured = _measured_motion(sim, motion, rows, gains, reference_cutoff_hz, feedforward, fell, fall_time)
     measured.meta["servos"] = servos.as_dict()
     measured.meta["pushes"] = [asdict(push) for push in pushes]
+    if recovery is not None:
+        measured.meta["recoveries"] = [change.as_dict() for change in recovery.replanned]
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
+
+
+def _recovered(sim: SimModel, data: mujoco.MjData, control: Stabilizer, recovery: StepRecovery,
+               time: float) -> Motion | None:
+    """The walk ``recovery`` replans at ``time`` (s from the walk's start), if the reference
+    stands on one sole and the DCM error has outgrown it; else None."""
+    stance = control.stance(time)
+    if stance is None:
+        return None
+    site = sim.sole_sites[stance]
+    rotation = data.site_xmat[site].reshape(3, 3)
+    sole = (data.site_xpos[site][:2].copy(), float(np.arctan2(rotation[1, 0], rotation[0, 0])))
+    return recovery.check(time, control.dcm_error, control.omega, sole)
+
+
+def _blended(old, new, start: float, span: float):
+    """Commands that move from ``old``'s to ``new``'s over ``span`` s from ``start`` (raised cosine)."""
+
+    def at(time: float) -> np.ndarray:
+        if time >= start + span:
+            return new(time)
+        weight = 0.5 - 0.5 * np.cos(np.pi * max(time - start, 0.0) / span)
+        return old(time) + weight * (new(time) - old(time))
+
+    return at
 
 
 def _measured_motion(sim: SimModel, reference: Motion, rows: dict, gains: StabilizerGains | None, reference_cutoff_hz: float,

@@ -131,6 +131,16 @@ class Stabilizer:
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
+        self.follow(reference)
+        self.com = None  # the measured CoM at the previous call, for its velocity
+        self.com_velocity = np.zeros(2)
+        self.dcm_error = np.zeros(2)  # measured DCM minus the reference's (world x, y), at the last call
+        self.ankles = np.zeros(self.robot.nu)
+        self.z = 0.0
+
+    def follow(self, reference: Motion) -> None:
+        """Track ``reference`` from now on, keeping the feedback's state (a walk replanned
+        while it is played, :mod:`cocomopl.sim.recovery`)."""
         keep = reference.kept_samples()
         self.t = reference.t[keep]
         self.contact = reference.contact[keep]
@@ -144,10 +154,11 @@ class Stabilizer:
         com = np.array([pin.centerOfMass(model, data, qk) for qk in reference.q[keep]])
         self.omega = np.sqrt(GRAVITY / np.mean(com[:, 2]))
         self.dcm = com[:, :2] + np.gradient(com[:, :2], self.t, axis=0) / self.omega
-        self.com = None  # the measured CoM at the previous call, for its velocity
-        self.com_velocity = np.zeros(2)
-        self.ankles = np.zeros(self.robot.nu)
-        self.z = 0.0
+
+    def stance(self, time: float) -> str | None:
+        """The side of the one sole the reference stands on at ``time``, None in double support."""
+        contact = self.contact[self._sample(time)]
+        return SIDES[int(np.argmax(contact))] if contact.sum() == 1 else None
 
     def _sample(self, time: float) -> int:
         return int(np.clip(np.searchsorted(self.t, time, side="right") - 1, 0, len(self.t) - 1))
@@ -186,5 +197,5 @@ class Stabilizer:
             velocity = (com - self.com) / self.dt
             self.com_velocity += (velocity - self.com_velocity) * min(self.dt / COM_VELOCITY_FILTER, 1.0)
         self.com = com
-        dcm = com + self.com_velocity / self.omega
-        return np.clip(self.dcm_gain * (dcm - self.dcm[k]), -MAX_ZMP_SHIFT, MAX_ZMP_SHIFT)
+        self.dcm_error = com + self.com_velocity / self.omega - self.dcm[k]
+        return np.clip(self.dcm_gain * self.dcm_error, -MAX_ZMP_SHIFT, MAX_ZMP_SHIFT)
