@@ -87,7 +87,7 @@ def test_what_the_stance_sole_can_absorb_or_comes_too_late_changes_nothing(walk)
 
 
 def test_a_pushed_walk_replans_towards_the_push_in_simulation(walk):
-    start, end = single_support(walk, 2)
+    start, _ = single_support(walk, 2)
     swing = recovery_for(walk).landings[2].side
     outward = 1.0 if swing == "left" else -1.0
     sim = build_sim_model(walk.robot, visuals=False)

@@ -22,9 +22,9 @@ repeats the footstep before it.
 from __future__ import annotations
 
 import math
-import time as time_module
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from time import perf_counter
 
 import numpy as np
 
@@ -94,13 +94,13 @@ class StepRecovery:
         landings = self._moved_landings(step, np.asarray(error) * math.exp(omega * (touchdown - time)))
         if landings is None:
             return None
-        started = time_module.perf_counter()
+        started = perf_counter()
         try:
             motion = self.generate(landings)
         except Error:  # a footstep the plan's checks refuse (the feet too close): no move
             return None
         old, moved = self.landings[step], landings[step]
-        self.replanned.append(Replanned(time, step, (moved.x - old.x, moved.y - old.y), time_module.perf_counter() - started))
+        self.replanned.append(Replanned(time, step, (moved.x - old.x, moved.y - old.y), perf_counter() - started))
         self.landings, self.motion = landings, motion
         return motion
 
