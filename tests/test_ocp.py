@@ -158,7 +158,7 @@ def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(rob
 
     def solve_with_retries(robot, spec, states, settings, guesses):
         ok = neighbour_works or guesses[0] == ["own"]
-        return (SimpleNamespace(stats={"cost": 1.0}) if ok else None), [{"guess": "warm start", "converged": ok}]
+        return (SimpleNamespace(stats={"cost": 1.0, "iterations": 10}) if ok else None), [{"guess": "warm start", "converged": ok}]
 
     monkeypatch.setattr(ocp_solve, "warm_up_walk", warm_up_walk)
     monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
@@ -169,6 +169,39 @@ def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(rob
     assert solutions["cyclic"] is not None
     assert walks == ([neighbour] if neighbour_works else [neighbour, None])
     assert info["duration_search"] == [{"ss_duration": SMALL.ss_duration, "cost": 1.0, "continued": neighbour_works}]
+
+
+@pytest.mark.parametrize("own_cost", [0.5, 2.0])
+def test_a_continued_cyclic_step_that_needs_the_whole_budget_is_also_solved_afresh(robot, monkeypatch, own_cost):
+    """A neighbour's walk that leads the cyclic step through the whole iteration budget may have
+    led it onto another branch: the footstep's own walk is tried too, and the lower cost kept
+    (the solver is stubbed)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from cocomopl.ocp import solve as ocp_solve
+
+    settings = replace(SMALL, ss_search_step=0.0)
+    walks = []
+
+    def warm_up_walk(robot, footstep, settings, guess=None, controls=None):
+        walks.append(guess)
+        return SimpleNamespace(xs=["neighbour's" if guess is not None else "own"])
+
+    def solve_with_retries(robot, spec, states, settings, guesses):
+        continued = guesses[0] == ["neighbour's"]
+        stats = {"cost": 1.0, "iterations": settings.max_iterations} if continued else {"cost": own_cost, "iterations": 40}
+        return SimpleNamespace(stats=stats), [{"guess": "warm start", "converged": True}]
+
+    monkeypatch.setattr(ocp_solve, "warm_up_walk", warm_up_walk)
+    monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
+    monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
+    neighbour = np.zeros((3, 2))
+    solutions, info = ocp_solve.solve_length(robot, 0.2, settings, ("cyclic",), walk_guess=neighbour)
+    assert walks == [neighbour, None]
+    assert solutions["cyclic"].stats["cost"] == min(1.0, own_cost)
+    assert info["duration_search"] == [{"ss_duration": SMALL.ss_duration, "cost": min(1.0, own_cost),
+                                        "continued": own_cost > 1.0}]
 
 
 def test_descent_finds_the_grid_minimum():
