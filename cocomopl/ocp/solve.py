@@ -340,7 +340,7 @@ def solve_length(
                 # failed from both neighbours, solved from the kinematic walk), or onto another
                 # branch, where it needs the whole budget (the same step of a denser design: 300
                 # iterations, 2.2 times the cost it has from its own walk, 0.7 rad away in the
-                # arms): then it is also solved afresh, and the lower cost is kept
+                # upper body): then it is also solved afresh, and the lower cost is kept
                 for start in [(walk_guess, walk_controls)] + ([(None, None)] if walk_guess is not None else []):
                     walk = warm_up_walk(robot, footstep, opts, *start)
                     segment = walk_segment(robot, walk, "cyclic")
