@@ -15,7 +15,14 @@ from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
 from cocomopl.ocp.contact_controls import inverse_dynamics_controls
 from cocomopl.ocp.problems import build_problem
-from cocomopl.ocp.refine import check_refinable, cold_solve, refine_walk, solve_warm, torque_cost
+from cocomopl.ocp.refine import (
+    best_expected_decrease,
+    check_refinable,
+    cold_solve,
+    refine_walk,
+    solve_warm,
+    torque_cost,
+)
 from cocomopl.ocp.solve import step_plan
 from cocomopl.pipeline import generate_walk
 from cocomopl.robot import mirror_joints
@@ -42,6 +49,13 @@ def test_a_warm_start_converges_in_fewer_iterations_than_cold_at_no_higher_cost(
     assert warm.stats["cost"] <= 1.005 * cold.stats["cost"]
     # the solver's own model confirms an optimum at once: one iteration, and one to test it
     assert warm.stats["iterations"] <= 2
+
+
+@pytest.mark.parametrize("d", [(2166.0, -7421.0), (1.0, -1.0), (6e-4, -6e-4), (5.0, -2.0), (1.0, 0.5)])
+def test_the_expected_decrease_is_the_models_best_over_step_lengths_up_to_one(d):
+    alphas = np.linspace(1e-4, 1.0, 100001)
+    best = np.max(alphas * d[0] + 0.5 * alphas**2 * d[1])
+    assert best_expected_decrease(*d) == pytest.approx(best, rel=1e-6)
 
 
 def test_a_solved_steps_states_are_realised_by_inverse_dynamics_inside_its_cones(robot, small_dataset):

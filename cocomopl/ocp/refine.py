@@ -17,10 +17,11 @@ The guess's controls are not the walk's own torques: they are recomputed on the 
 knots by inverse dynamics with each knot's contact wrenches split as the OCP's own costs
 split them (:mod:`cocomopl.ocp.contact_controls`).  The solver is the dataset's (box-FDDP),
 run one iteration at a time so that the iterations are counted exactly and the
-regularisation carries over.  A step has converged when, with no dynamic gap left, a full
-Newton step from where the solver stands is expected to lower the cost by less than the
-dataset's relative tolerance (the expected improvement of the solver's own backward pass,
-so a guess that is already optimal is confirmed in two iterations), or, where the line
+regularisation carries over.  A step has converged when, with no dynamic gap left, no step
+along the solver's direction from where it stands is expected to lower the cost by more than
+the dataset's relative tolerance (the model of the solver's own backward pass,
+:func:`best_expected_decrease`, so a guess that is already optimal is confirmed in two
+iterations), or, where the line
 search stalls, when its cost has changed by less than that over the last ``WINDOW``
 iterations; and it passes the checks the dataset accepts its steps by (a cost test alone
 once accepted a step stopped at 84 times the cost from another start).
@@ -245,9 +246,8 @@ def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settin
 
 
 def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
-    """Run ``solver`` one iteration at a time until a full Newton step from where it stands
-    is expected to lower the cost by less than ``tolerance`` of it, or the cost has settled
-    (see the module)."""
+    """Run ``solver`` one iteration at a time until no step from where it stands is expected
+    to lower the cost by more than ``tolerance`` of it, or the cost has settled (see the module)."""
     costs, regularisation, feasible = [], None, False
     started = time.perf_counter()
     converged = False
@@ -257,9 +257,8 @@ def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
         # (after rejected steps) expects little of any step, wherever it stands
         testable = bool(costs) and solver.ffeas < FEASIBLE and regularisation <= DAMPED * solver.reg_min
         solver.solve(*args)
-        # d: the first and second order terms of the cost decrease a step is expected to
-        # bring, from this iteration's backward pass, i.e. at the point the previous one reached
-        expected = solver.d[0] + 0.5 * solver.d[1]
+        # from this iteration's backward pass, i.e. at the point the previous one reached
+        expected = best_expected_decrease(*solver.d)
         confirmed = testable and expected < tolerance * max(1.0, abs(costs[-1]))
         xs, us = list(solver.xs), list(solver.us)
         regularisation, feasible = solver.preg, solver.isFeasible
@@ -270,6 +269,20 @@ def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
         converged = solver.ffeas < FEASIBLE and (confirmed or settled)
     return {"iterations": len(costs), "cost": costs[-1], "feasibility": float(solver.ffeas), "converged": converged,
             "solve_time_s": time.perf_counter() - started, "costs": costs}
+
+
+def best_expected_decrease(d1: float, d2: float) -> float:
+    """The largest cost decrease the solver's model expects of a step of length α in (0, 1].
+
+    FDDP expects ``α d1 + α² d2 / 2`` of a step ``α`` (``solver.d``).  Near an optimum
+    ``d2 ≈ -d1`` and the full step is best; far from one ``d2`` can be many times ``-d1``, the
+    full step overshoots and ``d1 + d2 / 2`` turns negative although the model still expects
+    a large decrease at a shorter step (a refined step stopped at 50 times its optimum on that
+    sign before this took the best step length).
+    """
+    if d2 < -d1 and d2 < 0:
+        return d1 * d1 / (-2.0 * d2)
+    return d1 + 0.5 * d2
 
 
 def solve_warm(robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list, us: Controls,
@@ -367,6 +380,7 @@ def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int 
 
 __all__ = [
     "RefinedWalk",
+    "best_expected_decrease",
     "check_refinable",
     "cold_solve",
     "refine_walk",
