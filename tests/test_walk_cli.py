@@ -142,10 +142,14 @@ def test_a_killed_walk_leaves_the_old_report_and_the_next_run_cleans_up(tmp_path
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plots", "report"]
 
 
+# a long walk (about a minute): on a loaded machine the signal must still find it running
+LONG_WALK_MM = ",".join(["250"] * 40)
+
+
 def start_walk(out) -> subprocess.Popen:
     """``cocomopl walk --out OUT`` in a new process, once it has started to build its report."""
-    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--out", str(out), "--no-video"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--lengths-mm", LONG_WALK_MM, "--out", str(out),
+                                "--no-video"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while process.poll() is None and time.monotonic() < deadline:
         if any(p.name.startswith(f".{out.name}.cocomopl-tmp-") for p in out.parent.iterdir()):
