@@ -142,14 +142,15 @@ def test_a_killed_walk_leaves_the_old_report_and_the_next_run_cleans_up(tmp_path
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plots", "report"]
 
 
-# a long walk (about a minute): on a loaded machine the signal must still find it running
-LONG_WALK_MM = ",".join(["250"] * 40)
-
-
 def start_walk(out) -> subprocess.Popen:
-    """``cocomopl walk --out OUT`` in a new process, once it has started to build its report."""
-    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--lengths-mm", LONG_WALK_MM, "--out", str(out),
-                                "--no-video"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    """``cocomopl walk --out OUT`` in a new process, once it has started to build its report.
+
+    The process gets Ctrl-C's default handling, as from a shell: a test worker may ignore
+    SIGINT (some suite runs' did, after tests that start process pools), and a child inherits
+    that, so the walk would run to its end."""
+    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--out", str(out), "--no-video"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     while process.poll() is None and time.monotonic() < deadline:
         if any(p.name.startswith(f".{out.name}.cocomopl-tmp-") for p in out.parent.iterdir()):
