@@ -145,12 +145,13 @@ def test_a_killed_walk_leaves_the_old_report_and_the_next_run_cleans_up(tmp_path
 def start_walk(out) -> subprocess.Popen:
     """``cocomopl walk --out OUT`` in a new process, once it has started to build its report.
 
-    The process gets Ctrl-C's default handling, as from a shell: a test worker may ignore
-    SIGINT (some suite runs' did, after tests that start process pools), and a child inherits
-    that, so the walk would run to its end."""
-    process = subprocess.Popen([sys.executable, "-m", "cocomopl", "walk", "--out", str(out), "--no-video"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    The process gets Ctrl-C's handling as from a shell: a test worker may ignore SIGINT (some
+    suite runs' did, after tests that start process pools), a child inherits that, and the walk
+    would run to its end."""
+    as_from_a_shell = ("import runpy, signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+                       "sys.argv = ['cocomopl', *sys.argv[1:]]; runpy.run_module('cocomopl', run_name='__main__')")
+    process = subprocess.Popen([sys.executable, "-c", as_from_a_shell, "walk", "--out", str(out), "--no-video"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while process.poll() is None and time.monotonic() < deadline:
         if any(p.name.startswith(f".{out.name}.cocomopl-tmp-") for p in out.parent.iterdir()):
