@@ -66,7 +66,7 @@ def main() -> int:
     from robustness import prepare_walks
 
     from cocomopl.analysis.metrics import summary
-    from cocomopl.pipeline import rollout_of
+    from cocomopl.pipeline import SimSettings, rollout_of
     from cocomopl.robot import Robot
     from cocomopl.sim.servos import ServoSettings
 
@@ -79,8 +79,9 @@ def main() -> int:
                "walks": {}}
         for name, motion in walks.items():
             for setting, (kv_time, feedforward) in SETTINGS.items():
-                rollout = rollout_of(robot, motion, stabilizer=True, contact_time_constant=0.01, feedforward=feedforward,
-                                     sim_model=path, servos=ServoSettings(kv_time_s=kv_time))
+                settings = SimSettings(contact_time_constant=0.01, feedforward=feedforward, sim_model=path,
+                                       servos=ServoSettings(kv_time_s=kv_time))
+                rollout = rollout_of(robot, motion, settings)
                 figures = summary(robot, rollout.measured, motion)
                 out["walks"].setdefault(name, {})[setting] = {
                     "fell": rollout.fell, "fall_time_s": rollout.fall_time,

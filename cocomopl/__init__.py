@@ -32,6 +32,7 @@ _EXPORTS = {
     "write_motions": "cocomopl.motion_file",
     "generate_walk": "cocomopl.pipeline",
     "simulate_walk": "cocomopl.pipeline",
+    "SimSettings": "cocomopl.pipeline",
 }
 
 __all__ = ["Error", "__version__", *_EXPORTS]

@@ -120,12 +120,19 @@ def _group_values(text: str) -> dict[str, float]:
     return out
 
 
-def _servo_settings(args):
-    """The servo model of the command line (:class:`~cocomopl.sim.servos.ServoSettings`)."""
+def _sim_settings(args):
+    """The simulation the command line asks for (:class:`~cocomopl.pipeline.SimSettings`):
+    the options of :func:`_simulation_options`, and those of :func:`_servo_options` and
+    ``--push`` where the command has them."""
+    from cocomopl.pipeline import SimSettings
     from cocomopl.sim.servos import ServoSettings
 
-    return ServoSettings(kp_scale=args.kp_scale, kv_time_s=args.kv_time_s, latency_s=args.latency_ms / 1000,
-                         encoder_noise_rad=args.encoder_noise_mrad / 1000, seed=args.noise_seed)
+    servos = ServoSettings(kp_scale=args.kp_scale, kv_time_s=args.kv_time_s, latency_s=args.latency_ms / 1000,
+                           encoder_noise_rad=args.encoder_noise_mrad / 1000, seed=args.noise_seed)
+    return SimSettings(stabilizer=not getattr(args, "no_stabilizer", False),
+                       contact_time_constant=args.contact_time_constant_s, reference_cutoff_hz=args.reference_cutoff_hz,
+                       feedforward=getattr(args, "feedforward", False), sim_model=args.sim_model, servos=servos,
+                       pushes=tuple(getattr(args, "push", ())))
 
 
 def _walk_request(args) -> dict:
@@ -424,9 +431,7 @@ def cmd_simulate(args) -> int:
     from cocomopl.jobs import simulate_file
 
     _note_replacing(args.out or f"{Path(args.file).stem}-sim.h5", inputs=[args.file])
-    payload = simulate_file(args.file, args.motion, args.out, not args.no_stabilizer, args.contact_time_constant_s,
-                            args.reference_cutoff_hz, args.command_line, progress=not args.json,
-                            feedforward=args.feedforward, sim_model=args.sim_model, servos=_servo_settings(args))
+    payload = simulate_file(args.file, args.motion, args.out, _sim_settings(args), args.command_line, progress=not args.json)
     _emit(args, payload, _metrics_table(payload) + f"\nwrote {payload['output']}")
     return 1 if payload["fell"] else 0
 
@@ -439,12 +444,10 @@ def cmd_walk(args) -> int:
     _note_replacing(out, inputs=[args.model], folder=True)
     request = _walk_request(args)
     label = walk_label(request.get("lengths"), request.get("goal"))
-    payload = walk_report(request.pop("lengths"), out, args.model, stabilizer=not args.no_stabilizer, video=not args.no_video,
-                          progress=not args.json, contact_time_constant=args.contact_time_constant_s,
-                          reference_cutoff_hz=args.reference_cutoff_hz, dt=args.dt, first_swing=args.first_swing,
-                          strict=args.strict, command=args.command_line, refine_steps=args.refine, dataset=args.data,
-                          feedforward=args.feedforward, sim_model=args.sim_model, servos=_servo_settings(args),
-                          pushes=args.push, recover=args.recover, **request)
+    payload = walk_report(request.pop("lengths"), out, args.model, _sim_settings(args), video=not args.no_video,
+                          progress=not args.json, dt=args.dt, first_swing=args.first_swing, strict=args.strict,
+                          command=args.command_line, refine_steps=args.refine, dataset=args.data, recover=args.recover,
+                          **request)
     for message in payload["warnings"]:
         _warn(message)
     lines = [f"walk {label}: "
@@ -474,10 +477,8 @@ def cmd_reproduce(args) -> int:
 
     out = Path(args.out)
     _note_replacing(out, inputs=[args.model, args.data], folder=True)
-    payload = reproduce_report(out, args.model, args.data, progress=not args.json,
-                               contact_time_constant=args.contact_time_constant_s,
-                               reference_cutoff_hz=args.reference_cutoff_hz, command=args.command_line,
-                               kajita_variant=args.kajita, sim_model=args.sim_model, servos=_servo_settings(args))
+    payload = reproduce_report(out, args.model, args.data, progress=not args.json, settings=_sim_settings(args),
+                               command=args.command_line, kajita_variant=args.kajita)
     start, end = payload["window_s"]
     lines = [(f"every figure over the walking window {start:g} to {end:g} s; contact time constant "
               f"{1000 * payload['contact_time_constant_s']:g} ms, reference low-pass {payload['reference_cutoff_hz']:g} Hz"),

@@ -453,34 +453,27 @@ def simulate_file(
     path: str | Path,
     motion_name: str | None = None,
     out: str | Path | None = None,
-    stabilizer: bool = True,
-    contact_time_constant: float | None = None,
-    reference_cutoff_hz: float | None = None,
+    settings=None,
     command: str | None = None,
     progress: bool = False,
-    feedforward: bool = False,
-    sim_model: str | Path | None = None,
-    servos=None,
 ) -> dict:
-    """Run a motion of a file in MuJoCo as a position-controlled robot (with ``feedforward``,
-    torque feedforward from the plan) and write the measured motion to ``out`` (default:
-    ``<file>-sim.h5`` in the working folder).
+    """Run a motion of a file in MuJoCo as a position-controlled robot, as ``settings`` say
+    (:class:`~cocomopl.pipeline.SimSettings`; default: its defaults), and write the measured
+    motion to ``out`` (default: ``<file>-sim.h5`` in the working folder).
 
     Returns the metrics against the reference (``fell`` among them) and the settings used.
     """
-    from cocomopl.pipeline import simulate_walk
+    from cocomopl.pipeline import SimSettings, simulate_walk
 
+    settings = settings or SimSettings()
     reference = read_motion(path, motion_name)
     out = output_file(out or f"{Path(path).stem}-sim.h5", "motion.h5", inputs=[path])
     robot = load_robot(reference.robot)
-    rollout, metrics = simulate_walk(robot, reference, stabilizer=stabilizer, progress=progress,
-                                     contact_time_constant=contact_time_constant,
-                                     reference_cutoff_hz=reference_cutoff_hz, feedforward=feedforward, sim_model=sim_model,
-                                     servos=servos)
+    rollout, metrics = simulate_walk(robot, reference, settings, progress=progress)
     write_motions(out, {"measured": rollout.measured},
                   {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
-    return {"output": str(out), "stabilizer": stabilizer, "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
-            "feedforward": feedforward,
+    return {"output": str(out), "stabilizer": settings.stabilizer,
+            "stabilizer_gains": rollout.measured.meta["stabilizer_gains"], "feedforward": settings.feedforward,
             "sim_model": rollout.measured.meta["sim_model"],
             "servos": rollout.measured.meta["servos"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],

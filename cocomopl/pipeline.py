@@ -13,6 +13,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,11 @@ from cocomopl.provenance import stamp
 from cocomopl.robot import DEFAULT_ROBOT, Robot
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
 from cocomopl.synthesis.world import place_steps
+
+if TYPE_CHECKING:  # the simulator is imported where a walk is simulated
+    from cocomopl.sim.perturbations import Push
+    from cocomopl.sim.servos import ServoSettings
+    from cocomopl.sim.stabilizer import StabilizerGains
 
 # m: the dynamics filter's RMS ZMP error above which a walk is flagged.  On 50 random walks
 # (benchmarks/random_walks.py --seed 1), 25 of the 31 that fell were above it and 12 of the
@@ -54,6 +60,36 @@ class GeneratedWalk:
     generation_s: float  # the primitives alone, after loading
     placement_s: float  # world placement, dynamics filter and inverse dynamics
     warnings: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """How a walk is simulated: the simulation options of ``walk``, ``simulate`` and
+    ``reproduce``, carried as one value from the command line to the rollout.
+
+    Attributes
+    ----------
+    stabilizer : add the stabilizer's corrections to the commanded joint angles
+    contact_time_constant : s, the sole-floor softness; None: the model's
+    reference_cutoff_hz : Hz, the reference's low-pass; None: the rollout's default; 0: none
+    feedforward : the servos' torque feedforward from the plan
+    sim_model : a MuJoCo model file of the robot made elsewhere
+        (:func:`~cocomopl.sim.mujoco_model.load_sim_model`); None: the project's own model
+    servos : :class:`~cocomopl.sim.servos.ServoSettings` (gains, latency, encoder noise);
+        None: the model's servos, ideal
+    gains : the stabilizer's :class:`~cocomopl.sim.stabilizer.StabilizerGains`; None: those
+        tuned for the motion's generator
+    pushes : :class:`~cocomopl.sim.perturbations.Push` forces on the pelvis
+    """
+
+    stabilizer: bool = True
+    contact_time_constant: float | None = None
+    reference_cutoff_hz: float | None = None
+    feedforward: bool = False
+    sim_model: str | Path | None = None
+    servos: ServoSettings | None = None
+    gains: StabilizerGains | None = None
+    pushes: tuple[Push, ...] = ()
 
 
 def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
@@ -192,16 +228,9 @@ def walk_provenance(command: str | None, model_path: str | Path | None = None, o
 def simulate_walk(
     robot: Robot,
     motion: Motion,
-    stabilizer: bool = True,
+    settings: SimSettings = SimSettings(),
     video: Path | None = None,
     progress: bool = False,
-    contact_time_constant: float | None = None,
-    reference_cutoff_hz: float | None = None,
-    gains=None,
-    feedforward: bool = False,
-    sim_model: str | Path | None = None,
-    servos=None,
-    pushes=(),
     recovery=None,
 ):
     """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
@@ -211,49 +240,33 @@ def simulate_walk(
     """
     from cocomopl.analysis.metrics import summary
 
-    rollout = rollout_of(robot, motion, stabilizer, video, progress, contact_time_constant, reference_cutoff_hz, gains,
-                         feedforward, sim_model, servos, pushes, recovery)
+    rollout = rollout_of(robot, motion, settings, video, progress, recovery)
     return rollout, summary(robot, rollout.measured, motion if recovery is None else recovery.motion)
 
 
 def rollout_of(
     robot: Robot,
     motion: Motion,
-    stabilizer: bool = True,
+    settings: SimSettings = SimSettings(),
     video: Path | None = None,
     progress: bool = False,
-    contact_time_constant: float | None = None,
-    reference_cutoff_hz: float | None = None,
-    gains=None,
-    feedforward: bool = False,
-    sim_model: str | Path | None = None,
-    servos=None,
-    pushes=(),
     recovery=None,
 ):
-    """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo; with ``video``, also
-    rendered there (MP4).  ``sim_model`` is a MuJoCo model file of the robot made elsewhere
-    (:func:`~cocomopl.sim.mujoco_model.load_sim_model`); default: the project's own model.
-    ``servos`` (:class:`~cocomopl.sim.servos.ServoSettings`) sets the servos' gains, latency
-    and encoder noise; default the model's servos, ideal.
-    ``contact_time_constant`` (s) sets the sole-floor softness
-    (default: the model's), ``reference_cutoff_hz`` the reference's low-pass (default: the
-    rollout's; 0: none), ``gains`` the stabilizer's
-    (:class:`~cocomopl.sim.stabilizer.StabilizerGains`; default: those tuned for the
-    motion's generator), ``feedforward`` the servos' torque feedforward from the plan,
-    ``pushes`` forces on the pelvis and ``recovery`` recovery by stepping (:func:`recovery_for`)
-    (:func:`~cocomopl.sim.rollout.simulate`)."""
+    """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo as ``settings`` say
+    (:func:`~cocomopl.sim.rollout.simulate`); with ``video``, also rendered there (MP4);
+    ``recovery``: recovery by stepping (:func:`recovery_for`)."""
     from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
 
-    if sim_model is not None:
-        sim = load_sim_model(robot, sim_model, contact_time_constant)
+    if settings.sim_model is not None:
+        sim = load_sim_model(robot, settings.sim_model, settings.contact_time_constant)
     else:
-        sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=contact_time_constant)
-    cutoff = REFERENCE_CUTOFF_HZ if reference_cutoff_hz is None else reference_cutoff_hz
-    rollout = simulate(sim, motion, stabilizer=stabilizer, progress=progress, reference_cutoff_hz=cutoff, gains=gains,
-                       feedforward=feedforward, servos=servos, pushes=pushes, recovery=recovery)
+        sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=settings.contact_time_constant)
+    cutoff = REFERENCE_CUTOFF_HZ if settings.reference_cutoff_hz is None else settings.reference_cutoff_hz
+    rollout = simulate(sim, motion, stabilizer=settings.stabilizer, progress=progress, reference_cutoff_hz=cutoff,
+                       gains=settings.gains, feedforward=settings.feedforward, servos=settings.servos,
+                       pushes=settings.pushes, recovery=recovery)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout
@@ -263,11 +276,9 @@ def walk_report(
     lengths: list[float] | None,
     out_dir: str | Path,
     model_path: str | Path | None = None,
-    stabilizer: bool = True,
+    settings: SimSettings = SimSettings(),
     video: bool = True,
     progress: bool = False,
-    contact_time_constant: float | None = None,
-    reference_cutoff_hz: float | None = None,
     dt: float | None = None,
     first_swing: str = "left",
     strict: bool = False,
@@ -276,10 +287,6 @@ def walk_report(
     dataset: str | Path | None = None,
     landings: Sequence[Landing] | None = None,
     goal: Goal | Sequence[Goal] | None = None,
-    feedforward: bool = False,
-    sim_model: str | Path | None = None,
-    servos=None,
-    pushes=(),
     recover: bool = False,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
@@ -296,8 +303,7 @@ def walk_report(
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
     written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
     interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
-    :func:`generate_walk`'s; ``feedforward``, ``sim_model``, ``servos`` and ``pushes`` as
-    :func:`rollout_of`'s.  With ``recover`` a push the stabilizer cannot absorb moves a landing
+    :func:`generate_walk`'s; ``settings`` say how the walk is simulated (:class:`SimSettings`).  With ``recover`` a push the stabilizer cannot absorb moves a landing
     and the walk is generated again (:func:`recovery_for`; the report's ``recoveries``).
     Returns the metrics with the timings, the files written and their provenance.
     """
@@ -307,7 +313,7 @@ def walk_report(
 
     started = time.perf_counter()
     # missing inputs are refused before anything is written
-    if recover and (refine_steps or not stabilizer):
+    if recover and (refine_steps or not settings.stabilizer):
         raise Error("recovery by stepping needs the stabilizer, and replans with the primitives: "
                     "it cannot be combined with --no-stabilizer or --refine")
     omni = lengths is None
@@ -320,11 +326,8 @@ def walk_report(
             refined_walk, refined = refine(walk.motion, dataset, progress)
             planned["refined"] = refined_walk.motion
         recovery = recovery_for(walk, dt or PLAN_DT) if recover else None
-        rollout, metrics = simulate_walk(
-            walk.robot, planned["refined" if refine_steps else "generated"], stabilizer,
-            work / "walk.mp4" if video else None, progress, contact_time_constant, reference_cutoff_hz,
-            feedforward=feedforward, sim_model=sim_model, servos=servos, pushes=pushes, recovery=recovery,
-        )
+        rollout, metrics = simulate_walk(walk.robot, planned["refined" if refine_steps else "generated"], settings,
+                                         work / "walk.mp4" if video else None, progress, recovery)
         if recovery is not None and recovery.replanned:
             planned["replanned"] = recovery.motion
         motions = {**planned, "simulated": rollout.measured}
@@ -339,9 +342,9 @@ def walk_report(
             **({"lengths_mm": [1000 * x for x in lengths]} if lengths is not None else {"footsteps": walk.motion.meta["footsteps"]}),
             **(goal_errors(walk.robot, rollout.measured, goal_list(goal)) if goal is not None else {}),
             "steps": [s.spec.name for s in walk.steps],
-            "stabilizer": stabilizer,
+            "stabilizer": settings.stabilizer,
             "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
-            "feedforward": feedforward,
+            "feedforward": settings.feedforward,
             "sim_model": rollout.measured.meta["sim_model"],
             "servos": rollout.measured.meta["servos"],
             "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
@@ -414,12 +417,9 @@ def reproduce_report(
     model_path: str | Path | None = None,
     dataset_path: str | Path | None = None,
     progress: bool = False,
-    contact_time_constant: float | None = None,
-    reference_cutoff_hz: float | None = None,
+    settings: SimSettings = SimSettings(),
     command: str | None = None,
     kajita_variant: str = "two-stage",
-    sim_model: str | Path | None = None,
-    servos=None,
 ) -> dict:
     """The paper's experiment (sec. V): M_gen from the primitives, M_gen refined by the OCPs
     of the dataset at ``dataset_path`` (:func:`refine`), M_opt from chained OCPs (that
@@ -430,7 +430,8 @@ def reproduce_report(
 
     ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` with
     every metric, and the comparison PNGs, written as a unit as :func:`walk_report`'s; the
-    model and dataset default to the bundled ones.
+    model and dataset default to the bundled ones.  ``settings`` say how the walks are
+    simulated (:class:`SimSettings`), always with the stabilizer and each walk's tuned gains.
     """
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.motion_file import report_folder, write_json, write_motions
@@ -439,8 +440,7 @@ def reproduce_report(
     dataset_path = bundled_dataset_path(dataset_path)
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
-        robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress, contact_time_constant,
-                                                               reference_cutoff_hz, kajita_variant, sim_model, servos)
+        robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress, settings, kajita_variant)
         payload["provenance"] = provenance
         motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
                    for name, m in by_name.items()}
@@ -475,11 +475,10 @@ def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
 
 
 def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool = False,
-                      contact_time_constant: float | None = None, reference_cutoff_hz: float | None = None,
-                      gains: dict | None = None, window: tuple[float, float] | None = None,
-                      sim_model: str | Path | None = None, servos=None) -> tuple[dict, dict, tuple[float, float]]:
-    """Simulate each of the ``planned`` walks with the stabilizer and measure them by the
-    comparison protocol (:mod:`cocomopl.analysis.comparison`).
+                      settings: SimSettings = SimSettings(), gains: dict | None = None,
+                      window: tuple[float, float] | None = None) -> tuple[dict, dict, tuple[float, float]]:
+    """Simulate each of the ``planned`` walks with the stabilizer, otherwise as ``settings``
+    say, and measure them by the comparison protocol (:mod:`cocomopl.analysis.comparison`).
 
     ``gains`` maps a walk's name to its :class:`~cocomopl.sim.stabilizer.StabilizerGains`;
     by default each walk gets those tuned for its generator.  ``window`` (s) defaults to
@@ -493,18 +492,16 @@ def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool =
     window = window or common_window(planned)
     simulated = {}
     for name, motion in planned.items():
+        walk_settings = dataclasses.replace(settings, stabilizer=True, gains=(gains or {}).get(name))
         # measured below, over the window only
-        rollout = rollout_of(robot, motion, stabilizer=True, progress=progress, contact_time_constant=contact_time_constant,
-                             reference_cutoff_hz=reference_cutoff_hz, gains=(gains or {}).get(name), sim_model=sim_model,
-                             servos=servos)
+        rollout = rollout_of(robot, motion, walk_settings, progress=progress)
         # the simulator's clock starts at the plan's first sample
         simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
     return simulated, window_figures(robot, planned, simulated, window), window
 
 
-def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_time_constant: float | None,
-                      reference_cutoff_hz: float | None, kajita_variant: str = "two-stage",
-                      sim_model: str | Path | None = None, servos=None) -> tuple[Robot, dict, dict, dict]:
+def _paper_experiment(model_path, dataset_path: Path, progress: bool, settings: SimSettings,
+                      kajita_variant: str = "two-stage") -> tuple[Robot, dict, dict, dict]:
     """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "refined"
     (M_gen refined by optimal control), "OC", "Kajita") and the summary without provenance, files and wall time."""
     from cocomopl.analysis.comparison import per_measure
@@ -523,8 +520,7 @@ def _paper_experiment(model_path, dataset_path: Path, progress: bool, contact_ti
     refined, refine_summary = refine(walk.motion, dataset_path, progress)
     kajita = kajita_for(walk, kajita_variant)
     planned = {"MP": walk.motion, "refined": refined.motion, "OC": m_opt, "Kajita": kajita}
-    simulated, figures, window = simulate_compared(robot, planned, progress, contact_time_constant, reference_cutoff_hz,
-                                                   sim_model=sim_model, servos=servos)
+    simulated, figures, window = simulate_compared(robot, planned, progress, settings)
     table = {}
     for name, label in (("OC", "OC planned (joint torques)"), ("MP", "MP planned (inverse dynamics)"),
                         ("refined", "refined planned (joint torques)"), ("Kajita", "Kajita planned (inverse dynamics)")):

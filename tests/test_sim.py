@@ -289,3 +289,20 @@ def test_the_projects_own_model_read_as_a_model_file_walks_exactly_as_built(robo
     read = simulate(load_sim_model(robot, path), reference, stabilizer=True).measured
     assert read.meta["sim_model"] == str(path)
     assert np.allclose(read.q, built.q, atol=1e-9) and np.allclose(read.wrenches, built.wrenches, atol=1e-6)
+
+
+def test_sim_settings_reach_the_rollout(robot, tmp_path):
+    from cocomopl.pipeline import SimSettings, rollout_of
+    from cocomopl.sim.servos import ServoSettings
+
+    path = tmp_path / "robot.xml"
+    path.write_text(mjcf(robot, visuals=False))
+    settings = SimSettings(stabilizer=False, contact_time_constant=0.02, reference_cutoff_hz=0.0, feedforward=True,
+                           sim_model=path, servos=ServoSettings(latency_s=0.002))
+    meta = rollout_of(robot, _standing(robot, 0.2), settings).measured.meta
+    assert meta["stabilizer"] is False and meta["stabilizer_gains"] is None
+    assert meta["contact_time_constant_s"] == pytest.approx(0.02)
+    assert meta["reference_cutoff_hz"] == 0.0
+    assert meta["feedforward"] is True
+    assert meta["sim_model"] == str(path)
+    assert meta["servos"]["latency_s"] == pytest.approx(0.002)
