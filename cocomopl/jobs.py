@@ -463,7 +463,7 @@ def simulate_file(
 
     Returns the metrics against the reference (``fell`` among them) and the settings used.
     """
-    from cocomopl.pipeline import SimSettings, simulate_walk
+    from cocomopl.pipeline import SimSettings, simulate_walk, simulation_record
 
     settings = settings or SimSettings()
     reference = read_motion(path, motion_name)
@@ -472,12 +472,7 @@ def simulate_file(
     rollout, metrics = simulate_walk(robot, reference, settings, progress=progress)
     write_motions(out, {"measured": rollout.measured},
                   {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
-    return {"output": str(out), "stabilizer": settings.stabilizer,
-            "stabilizer_gains": rollout.measured.meta["stabilizer_gains"], "feedforward": settings.feedforward,
-            "sim_model": rollout.measured.meta["sim_model"],
-            "servos": rollout.measured.meta["servos"],
-            "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
-            "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"], **metrics}
+    return {"output": str(out), **simulation_record(rollout.measured), **metrics}
 
 
 def plot_folder(path: str | Path, motion_name: str | None = None) -> Path:

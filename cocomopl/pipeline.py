@@ -244,6 +244,14 @@ def simulate_walk(
     return rollout, summary(robot, rollout.measured, motion if recovery is None else recovery.motion)
 
 
+def simulation_record(measured: Motion) -> dict:
+    """How a rollout was simulated, as its measured motion's metadata records it: the
+    settings a report carries beside its figures."""
+    keys = ("stabilizer", "stabilizer_gains", "feedforward", "sim_model", "servos", "contact_time_constant_s",
+            "reference_cutoff_hz")
+    return {key: measured.meta[key] for key in keys}
+
+
 def rollout_of(
     robot: Robot,
     motion: Motion,
@@ -303,8 +311,9 @@ def walk_report(
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
     written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
     interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
-    :func:`generate_walk`'s; ``settings`` say how the walk is simulated (:class:`SimSettings`).  With ``recover`` a push the stabilizer cannot absorb moves a landing
-    and the walk is generated again (:func:`recovery_for`; the report's ``recoveries``).
+    :func:`generate_walk`'s; ``settings`` say how the walk is simulated (:class:`SimSettings`).
+    With ``recover`` a push the stabilizer cannot absorb moves a landing and the walk is
+    generated again (:func:`recovery_for`; the report's ``recoveries``).
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -342,13 +351,7 @@ def walk_report(
             **({"lengths_mm": [1000 * x for x in lengths]} if lengths is not None else {"footsteps": walk.motion.meta["footsteps"]}),
             **(goal_errors(walk.robot, rollout.measured, goal_list(goal)) if goal is not None else {}),
             "steps": [s.spec.name for s in walk.steps],
-            "stabilizer": settings.stabilizer,
-            "stabilizer_gains": rollout.measured.meta["stabilizer_gains"],
-            "feedforward": settings.feedforward,
-            "sim_model": rollout.measured.meta["sim_model"],
-            "servos": rollout.measured.meta["servos"],
-            "contact_time_constant_s": rollout.measured.meta["contact_time_constant_s"],
-            "reference_cutoff_hz": rollout.measured.meta["reference_cutoff_hz"],
+            **simulation_record(rollout.measured),
             "pushes": rollout.measured.meta["pushes"],
             **({"recoveries": rollout.measured.meta["recoveries"]} if recover else {}),
             **metrics,
