@@ -435,7 +435,7 @@ def model_cases() -> list[Case]:
     """The bundled model, corrupted (checksum recomputed), read by ``model info`` and ``generate``."""
     table = [
         ("model-array", "m.nan", model_array("m", first_nan), (GENERATE, WALK)),
-        ("model-array", "C.inf", model_array("C", lambda a: first_nan(a, INF)), (GENERATE,)),
+        ("model-array", "beta.inf", model_array("beta", lambda a: first_nan(a, INF)), (GENERATE,)),
         ("model-array", "alpha_w.drop-column", model_array("alpha_w", lambda a: a[:, :-1]), (GENERATE,)),
         ("model-array", "m.transposed", model_array("m", lambda a: a.T), (GENERATE,)),
         ("model-array", "sigma.strings", model_array("sigma", lambda a: a.astype(str)), (GENERATE,)),

@@ -305,9 +305,9 @@ def train_model(
     command: str | None = None,
     progress: bool = False,
 ) -> dict:
-    """Fit every candidate number of primitives and time kernel on the dataset ``data``
-    (default: the bundled one), keep the largest free energy, write the model to ``out`` and
-    the comparison plot beside it (``out`` with ``.png``).
+    """Select a model among the candidate numbers of primitives and time kernels on the dataset
+    ``data`` (default: the bundled one; :func:`~cocomopl.primitives.selection.select_model`),
+    write it to ``out`` and the comparison plot beside it (``out`` with ``.png``).
 
     Returns the chosen model's summary and the selection table (``selection``).
     """

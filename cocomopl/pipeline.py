@@ -24,7 +24,7 @@ from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, M_OPT, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
-from cocomopl.motion import Motion
+from cocomopl.motion import Motion, StepSpec
 from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
 from cocomopl.planning.goal import plan_through
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
@@ -116,6 +116,23 @@ def check_plan_dt(dt: float) -> float:
     return dt
 
 
+def plan_in_support(robot: Robot, model: MovementPrimitives, goals: list[Goal], strict: bool = False) -> list[StepSpec]:
+    """The steps of a walk through ``goals`` (:func:`~cocomopl.planning.goal.plan_through`)
+    within ``model``'s learned footstep range, every step within its training support where
+    such a walk exists: the learned range is a box around footsteps that need not fill it.
+    Where none exists, the walk in the range, whose steps are then warned about, or with
+    ``strict`` the planner's error."""
+    def supported(specs: list[StepSpec]) -> bool:
+        return all(step.in_support for step in model.predict_many(specs))
+
+    try:
+        return plan_through(robot, goals, model.footstep_range(), supported)
+    except Error:
+        if strict:
+            raise
+    return plan_through(robot, goals, model.footstep_range())
+
+
 def generate_walk(
     lengths: Sequence[float] | None = None,
     model_path: str | Path | None = None,
@@ -134,10 +151,11 @@ def generate_walk(
     which the walk reaches in turn, stopping at each (:func:`~cocomopl.planning.goal.plan_through`).
 
     ``model_path`` defaults to the bundled model (for footsteps and goals, the bundled
-    omnidirectional one) and ``dt`` (s) to ``PLAN_DT``.  Steps
-    outside the training support are warned about (``warnings``), or refused with
-    ``strict``, with which a goal's walk is planned within the support.  So is a walk that the dynamics filter could not make consistent (its ZMP
-    more than ``FILTER_WARNING_M`` RMS from the learned one): most such walks fall.
+    omnidirectional one) and ``dt`` (s) to ``PLAN_DT``.  A goal's walk is planned within the
+    training support where it can be (:func:`plan_in_support`).  Steps outside the support
+    are warned about (``warnings``), or refused with ``strict``.  So is a walk that the
+    dynamics filter could not make consistent (its ZMP more than ``FILTER_WARNING_M`` RMS
+    from the learned one): most such walks fall.
     """
     if sum(x is not None for x in (lengths, landings, goal)) != 1:
         raise Error("a walk is given by exactly one of step lengths, footsteps or a goal")
@@ -153,9 +171,7 @@ def generate_walk(
     elif landings is not None:
         specs = walk_specs(robot, landings)
     else:
-        # strict: plan only walks whose every step lies within the training support
-        supported = (lambda specs: all(step.in_support for step in model.predict_many(specs))) if strict else None
-        specs = plan_through(robot, goal_list(goal), model.footstep_range(), supported)
+        specs = plan_in_support(robot, model, goal_list(goal), strict)
     dt = PLAN_DT if dt is None else check_plan_dt(dt)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)

@@ -30,11 +30,14 @@ def model():
 
 
 def direct_weight_variance(model, type_, z):
-    """The weight GPs' posterior variance (before the floor), directly from the solves ``C``
-    the model file stores: ``alpha - b^T C b``."""
-    c, g = model._type_arrays(type_), model.types.index(type_)
+    """The weight GPs' posterior variance (before the floor), by dense solves of the model's
+    weight kernels: ``alpha - b^T C b`` with ``C = (alpha (E + eta I) + I / c)^-1``."""
+    c = model._type_arrays(type_)
     n = len(c["lengths"])
-    C = model.state_["C"][:, :, g, :n, :n].reshape(-1, n, n)
+    D = ((c["lengths"][:, None] - c["lengths"][None]) ** 2).sum(axis=-1)
+    eta, precision = model.state_["eta_w"].ravel(), model.state_["c_w"].ravel()
+    B = c["alpha_w"][:, None, None] * (np.exp(-np.multiply.outer(c["gamma_w"], D)) + eta[:, None, None] * np.eye(n))
+    C = np.linalg.inv(B + np.eye(n) / precision[:, None, None])
     d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
     b = c["alpha_w"][:, None] * np.exp(-np.multiply.outer(c["gamma_w"], d2)) + np.multiply.outer(c["nugget"], d2 < SAME_LENGTHS_M2)
     return np.maximum(c["alpha_w"] - np.einsum("kn,knm,km->k", b, C, b), 0.0)

@@ -302,7 +302,7 @@ EDITS = {
                        ["array 'signal_names' has dtype |S17, expected unicode text"]),
     "flags_as_floats": (replace("unconditioned", lambda a: a.astype(float)),
                         ["array 'unconditioned' has dtype float64, expected booleans"]),
-    "nan": (assign("C", (0, 0, 0, 0, 0), np.nan), ["array 'C' holds nan at (0, 0, 0, 0, 0), expected finite numbers"]),
+    "nan": (assign("beta", (0, 0, 0, 0), np.nan), ["array 'beta' holds nan at (0, 0, 0, 0), expected finite numbers"]),
     "inf": (assign("dur_K_inv", (1, 0, 2, 2), -np.inf), ["array 'dur_K_inv' holds -inf at (1, 0, 2, 2)"]),
     "primitives_in_metadata": (set_meta("n_primitives", 15),
                                ["array 'm' has shape (11, 100), expected (15, 100)",

@@ -4,6 +4,7 @@ goal pose (issue #25, part 5)."""
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -197,13 +198,32 @@ def test_a_plan_a_further_test_refuses_gives_way_to_the_next(robot):
         plan_to_goal(robot, goal, accept=lambda specs: False)
 
 
-def test_strict_plans_a_goal_within_the_models_support():
-    """Seed 6's random goal -0.352, 0.092, -58.8 deg: the bundled model's plan starts with a
-    step 0.14 away from its training steps; with strict the planner finds one within."""
+def test_a_goal_is_planned_within_the_models_support():
+    """Seed 6's random goal -0.352, 0.092, -58.8 deg: the bundled model's shortest plan starts
+    with a step 0.14 away from its training steps; the planner finds one within."""
     from cocomopl.pipeline import generate_walk
 
-    goal = (-0.352, 0.092, math.radians(-58.8))
-    loose = generate_walk(goal=goal)
-    assert not all(step.in_support for step in loose.steps) and loose.warnings
-    strict = generate_walk(goal=goal, strict=True)
-    assert all(step.in_support for step in strict.steps)
+    walk = generate_walk(goal=(-0.352, 0.092, math.radians(-58.8)))
+    assert all(step.in_support for step in walk.steps) and not walk.warnings
+
+
+class _NothingSupported:
+    """A model stand-in whose every step is outside its support."""
+
+    def __init__(self, model):
+        self.footstep_range = model.footstep_range
+
+    def predict_many(self, specs):
+        return [SimpleNamespace(in_support=False) for _ in specs]
+
+
+def test_a_goal_with_no_supported_plan_gets_the_plan_in_range_unless_strict(robot):
+    from cocomopl.data import BUNDLED_OMNI_MODEL
+    from cocomopl.pipeline import plan_in_support
+    from cocomopl.primitives.model_file import load_model
+
+    model = _NothingSupported(load_model(BUNDLED_OMNI_MODEL))
+    goals = [(0.6, 0.0, 0.0)]
+    assert plan_in_support(robot, model, goals) == plan_through(robot, goals, model.footstep_range())
+    with pytest.raises(Error, match="the model's support"):
+        plan_in_support(robot, model, goals, strict=True)

@@ -1,4 +1,4 @@
-"""Model selection: every candidate is fitted and the one with the largest bound kept.
+"""Model selection: the candidates are fitted from the smallest S up until the rule settles.
 
 Two barely fitted candidates (2 and 3 primitives, 5 L-BFGS iterations) on the six cyclic
 steps of 150-250 mm of the bundled dataset: the tests check the selection, not the models.
@@ -10,10 +10,10 @@ import pytest
 
 from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
 from cocomopl.errors import Error
-from cocomopl.primitives import DEFAULT_MAX_ITERATIONS
+from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, selection
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.model_file import model_metadata
-from cocomopl.primitives.selection import EXPLAINED_ENOUGH, choose, select_model
+from cocomopl.primitives.selection import EXPLAINED_ENOUGH, choose, select_model, settled
 from cocomopl.primitives.training import load_training_steps
 
 
@@ -42,6 +42,22 @@ def test_every_candidate_is_fitted_and_the_rule_chooses(selected):
 def _row(kernel: str, S: int, bound: float, explained: float) -> dict:
     return {"kernel": kernel, "n_primitives": S, "bound": bound,
             "explained_variance": {"joints": 1.0, "zmp": explained, "pelvis": 1.0}}
+
+
+def test_the_search_stops_at_the_first_size_that_explains_enough(cyclic, monkeypatch):
+    monkeypatch.setattr(selection, "EXPLAINED_ENOUGH", 0.0)
+    best, rows = select_model(cyclic, n_primitives=(3, 2, 4), kernels=("rbf", "matern32"), max_iterations=2, workers=2)
+    assert sorted((r["kernel"], r["n_primitives"]) for r in rows) == [("matern32", 2), ("rbf", 2)]
+    assert best.n_primitives == 2
+
+
+def test_the_search_settles_where_the_bound_falls_or_a_size_explains_enough():
+    low, high = EXPLAINED_ENOUGH - 1e-4, EXPLAINED_ENOUGH + 1e-4
+    assert not settled([_row("rbf", 7, 1.0, low), _row("matern32", 7, 1.1, low)])
+    assert settled([_row("rbf", 7, 1.0, low), _row("rbf", 11, 2.0, high)])
+    assert settled([_row("rbf", 7, 2.0, low), _row("rbf", 11, 1.0, low)])
+    # an earlier size explaining enough does not settle a later one (the bound rose through it)
+    assert not settled([_row("rbf", 7, 1.0, high), _row("rbf", 11, 2.0, low)])
 
 
 def test_a_bound_that_keeps_rising_leaves_the_choice_to_the_explained_variance():

@@ -376,8 +376,9 @@ class MovementPrimitives:
             self._cache[type_] = {
                 "lengths": np.ascontiguousarray(s["lengths"][g, :n]),
                 "chi": s["chi"][:, :, g].ravel(),
-                **_weight_solves(s["C"][:, :, g, :n, :n].reshape(-1, n, n), s["lengths"][g, :n],
-                                 s["alpha_w"].ravel(), s["gamma_w"].ravel(), s["beta"][:, :, g, :n].reshape(-1, n)),
+                **_weight_solves(s["lengths"][g, :n], s["alpha_w"].ravel(), s["gamma_w"].ravel(),
+                                 (s["eta_w"] + 1.0 / (s["alpha_w"] * s["c_w"])).ravel(),
+                                 s["beta"][:, :, g, :n].reshape(-1, n)),
                 "boundaries": s["boundaries"][g, : P + 1],
                 "support_radius": float(s["support_radius"][g]),
                 "dur_mean": s["dur_mean"][g, :P],
@@ -483,18 +484,17 @@ class MovementPrimitives:
         return _fraction_explained(X, X_hat, slice(None))
 
 
-def _weight_solves(C: np.ndarray, lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, beta: np.ndarray) -> dict:
-    """The weight GPs' solves ``C_k`` (K, n, n) and ``beta_k`` (K, n) of one type, laid out so
-    that predicting the K weights of several steps costs a few matrix products.
+def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, nu: np.ndarray, beta: np.ndarray) -> dict:
+    """The weight GPs' solves of one type, laid out so that predicting the K weights of several
+    steps costs a few matrix products.
 
-    ``C_k = (B_k + I / c_k)^-1`` with the prior ``B_k = alpha_k (E(gamma_k) + eta_k I)`` and
-    ``E(gamma) = exp(-gamma D)`` over the training inputs' squared distances ``D``
-    (:func:`~cocomopl.primitives.optimise._prediction_arrays`), so ``C_k = U diag(1 /
-    (lambda + nu_k)) U^T / alpha_k`` in the eigenbasis ``E(gamma_k) = U diag(lambda) U^T``,
-    with ``nu_k = eta_k + 1 / (alpha_k c_k)``: a quadratic form costs O(n), not O(n^2).  The K
-    weights share a few distinct ``gamma`` (13 for 396 weights in the bundled omnidirectional
-    model): one eigenbasis each.  Read back from ``C``, the form reproduces it to a relative
-    4e-9 on the bundled models.
+    The solve of weight k is ``C_k = (B_k + I / c_k)^-1`` with the prior ``B_k = alpha_k
+    (E(gamma_k) + eta_k I)``, ``E(gamma) = exp(-gamma D)`` over the training inputs' squared
+    distances ``D`` (:func:`~cocomopl.primitives.optimise._prediction_arrays`) and ``c_k`` the
+    weights' observation precision.  So ``C_k = U diag(1 / (lambda + nu_k)) U^T / alpha_k``
+    in the eigenbasis ``E(gamma_k) = U diag(lambda) U^T``, with ``nu_k = eta_k + 1 / (alpha_k
+    c_k)``: a quadratic form costs O(n), not O(n^2).  The K weights share a few distinct
+    ``gamma`` (13 for 396 weights in the bundled omnidirectional model): one eigenbasis each.
 
     Returns ``basis`` (G, n, n), ``unique_gamma`` (G,), ``nu`` (K,) and ``beta`` (K, n), and
     the weights grouped by their ``gamma`` for batched products: ``mean_blocks`` ``alpha_k
@@ -505,8 +505,6 @@ def _weight_solves(C: np.ndarray, lengths: np.ndarray, alpha: np.ndarray, gamma:
     D = ((lengths[:, None] - lengths[None]) ** 2).sum(axis=-1)
     unique_gamma, gamma_of = np.unique(gamma, return_inverse=True)
     eigenvalues, basis = np.linalg.eigh(np.exp(-unique_gamma[:, None, None] * D))
-    # C_k^-1 = alpha_k (E + nu_k I), and E's diagonal is 1
-    nu = np.diagonal(np.linalg.inv(C), axis1=1, axis2=2).mean(axis=1) / alpha - 1.0
     G, n, M = len(unique_gamma), len(lengths), np.bincount(gamma_of).max()
     rank = np.empty(len(alpha), dtype=int)  # a weight's place in its group
     for g in range(G):

@@ -57,13 +57,12 @@ def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, z:
 
     The model's weight posterior is a GP that observes each training step's weights with a
     noise of its own per (signal, primitive) (``Omega = (B^-1 + c I)^-1``); a new step is
-    observed with the same noise, read back from the model's solves ``C = (B + I / c)^-1``.
+    observed with the same noise ``1 / c``.
     """
     arrays = model._type_arrays(type_)
     alpha, gamma, nugget = arrays["alpha_w"], arrays["gamma_w"], arrays["nugget"]
     trained = arrays["lengths"]
-    # C_k^-1 = alpha_k (1 + nu_k) on the diagonal, where the prior has alpha_k + nugget_k
-    noise = alpha * arrays["nu"] - nugget
+    noise = 1.0 / model.state_["c_w"].ravel()
     inputs = np.vstack([trained, added.reshape(-1, trained.shape[1])])
     K = _kernel(((inputs[:, None] - inputs[None]) ** 2).sum(-1), alpha, gamma, nugget)
     K += noise[:, None, None] * np.eye(len(inputs))

@@ -48,7 +48,10 @@ FORMAT = "cocomopl-model"
 # (version 1 had whole stops, which this version's prediction does not chain)
 # 3: ``m_cov_start``, each primitive's posterior covariance with its start, which
 # conditioning on a step's start needs, and ``eta_w``, the weight kernels' learned nuggets
-FORMAT_VERSION = 3
+# 4: ``c_w``, the weights' observation precisions, replace ``C``, the weight GPs' solves
+# (signals x primitives x types x N x N: 440 MB for 118 steps a type), which prediction
+# only read the precisions back from
+FORMAT_VERSION = 4
 METADATA_KEY = "__metadata__"
 # what np.load and reading an archive member raise on a truncated, corrupt or foreign file
 _UNREADABLE = (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, KeyError)
@@ -69,7 +72,7 @@ _AXES = {
 # its values must have: kernel amplitudes, widths and noise levels positive; distances and
 # the duration amplitudes (0 where a type has fewer phases) at least zero; step lengths at
 # least zero in a model of straight steps (``_check_step_parameters``).
-# ``m_var``, ``m_cov_start`` and ``C`` have none: they are computed (co)variances, round-off may leave an
+# ``m_var`` and ``m_cov_start`` have none: they are computed (co)variances, round-off may leave an
 # entry slightly below zero, and prediction clips what it derives from them.
 _ARRAYS = {
     # MovementPrimitives.fit
@@ -89,7 +92,7 @@ _ARRAYS = {
     "eta_w": ("f", "IS", ">0"),
     "chi": ("f", "ISG", None),
     "beta": ("f", "ISGN", None),
-    "C": ("f", "ISGNN", None),
+    "c_w": ("f", "IS", ">0"),
     "sigma": ("f", "I", ">0"),
     "alpha_t": ("f", "S", ">0"),
     "ell_t": ("f", "S", ">0"),

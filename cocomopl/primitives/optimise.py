@@ -175,9 +175,6 @@ def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
     m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
     L_B = slot_algebra.cholesky(B, data.groups)
     beta = slot_algebra.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None], data.groups)[..., 0] * data.mask
-    c = np.exp(params["log_c"])[:, :, None, None, None]
-    _, C = slot_algebra.cholesky_and_inverse(B + np.eye(B.shape[-1]) / c, data.groups)
-    both = data.mask[:, :, None] * data.mask[:, None, :]
     return {
         "m": q["m"],
         "m_var": np.diagonal(m_cov, axis1=1, axis2=2),
@@ -187,7 +184,7 @@ def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
         "eta_w": np.exp(params["log_eta_w"]),
         "chi": params["chi"],
         "beta": beta,
-        "C": C * both,
+        "c_w": np.exp(params["log_c"]),
         "sigma": np.exp(params["log_sigma"]),
         "alpha_t": np.exp(params["log_alpha_t"]),
         "ell_t": np.exp(params["log_ell_t"]),

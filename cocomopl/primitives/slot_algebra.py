@@ -57,19 +57,6 @@ def cholesky(M, groups, xp=np):
     return _with_blocks(out, [xp.linalg.cholesky(M[..., idx, :n, :n]) for n, idx in groups], groups, xp)
 
 
-def cholesky_and_inverse(M, groups, xp=np):
-    """Cholesky factors and inverses of positive-definite slot matrices ``M`` (..., G, N, N).
-
-    The inverse is taken through the factor, ``L^-T L^-1``: the kernels' nuggets can be as
-    small as 1e-6, where the factor is far better conditioned than the matrix."""
-    L = cholesky(M, groups, xp)
-    inverses = []
-    for n, idx in groups:
-        L_inv = xp.linalg.inv(L[..., idx, :n, :n])
-        inverses.append(xp.swapaxes(L_inv, -1, -2) @ L_inv)
-    return L, _with_blocks(_diagonal_matrix(1.0 / _diagonal(M), xp), inverses, groups, xp)
-
-
 def solve(M, R, groups, xp=np):
     """``M^-1 R`` for slot matrices ``M`` (..., G, N, N), triangular or not, and right-hand
     sides ``R`` (..., G, N, k); leading axes broadcast."""
