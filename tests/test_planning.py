@@ -217,11 +217,13 @@ class _NothingSupported:
         return [SimpleNamespace(in_support=False) for _ in specs]
 
 
-def test_a_goal_with_no_supported_plan_gets_the_plan_in_range_unless_strict(robot):
+def test_a_goal_with_no_supported_plan_gets_the_plan_in_range_unless_strict(robot, monkeypatch):
     from cocomopl.data import BUNDLED_OMNI_MODEL
     from cocomopl.pipeline import plan_in_support
+    from cocomopl.planning import goal
     from cocomopl.primitives.model_file import load_model
 
+    monkeypatch.setattr(goal, "MAX_LANDINGS", 6)  # a plan refused at every length is tried at each
     model = _NothingSupported(load_model(BUNDLED_OMNI_MODEL))
     goals = [(0.6, 0.0, 0.0)]
     assert plan_in_support(robot, model, goals) == plan_through(robot, goals, model.footstep_range())
