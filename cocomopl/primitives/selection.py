@@ -74,7 +74,7 @@ def select_model(
 
     Returns
     -------
-    best : the candidate with the largest bound
+    best : the candidate the rule chooses (:func:`choose`)
     rows : :func:`summary_row` of every candidate fitted, ordered by kernel and number of primitives
 
     Raises
