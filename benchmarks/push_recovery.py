@@ -6,7 +6,7 @@ sideways (``--axis lateral``) or forwards and backwards (``sagittal``), at ``--p
 times spread over its walk, both ways, at each force of a ladder.  Each push is simulated
 with the stabilizer alone and with the stabilizer and recovery by stepping
 (:mod:`cocomopl.sim.recovery`).  Nothing here is tuned: recovery has no gain beyond the
-pendulum model, its two settings (``LATEST``, ``RECOVERY_BLEND_S``) were set before any
+pendulum model, its two settings (``LATEST``, ``REPLAN_BLEND_S``) were set before any
 measurement and not varied, and the stabilizer's gains are those of the random-walk benchmark.
 
     python benchmarks/push_recovery.py [--to 2.0,0,0] [--axis lateral] [--forces 150,200,250,300,350]

@@ -16,9 +16,11 @@ bundled omnidirectional model's range (``cocomopl walk --to``), and it is also m
 against the goal and walked by the Kajita baseline on the same footsteps and timing.
 With ``--feedforward``, each walk is also simulated without the stabilizer but with the
 servos' torque feedforward from the plan (``cocomopl walk --no-stabilizer --feedforward``).
+With ``--reaim``, each walk is also simulated with footstep re-aiming, with and without the
+stabilizer (``cocomopl walk --reaim [--no-stabilizer]``).
 
     python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals] [--feedforward]
-        [--workers 2] [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
+        [--reaim] [--workers 2] [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
 """
 
 from __future__ import annotations
@@ -41,21 +43,27 @@ from cocomopl.primitives.model_file import load_model
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
+# per simulation of a walk: (stabilizer, torque feedforward, footstep re-aiming)
+RUNS = {"stabilizer": (True, False, False), "no_stabilizer": (False, False, False),
+        "feedforward": (False, True, False), "reaim": (True, False, True), "reaim_no_stabilizer": (False, False, True)}
 
-def run_names(goals: bool, feedforward: bool) -> tuple[str, ...]:
+
+def run_names(goals: bool, feedforward: bool, reaim: bool = False) -> tuple[str, ...]:
     """The simulations of each walk: the generated walk with and without the stabilizer,
-    without it but with torque feedforward, the Kajita baseline (with the stabilizer)."""
-    return ("stabilizer", "no_stabilizer") + (("feedforward",) if feedforward else ()) + (("kajita",) if goals else ())
+    without it but with torque feedforward, re-aimed with and without it, the Kajita baseline
+    (with the stabilizer)."""
+    return (("stabilizer", "no_stabilizer") + (("feedforward",) if feedforward else ())
+            + (("reaim", "reaim_no_stabilizer") if reaim else ()) + (("kajita",) if goals else ()))
 
 
 def run_one(request: dict, contact_time_constant: float, model: str, reference_cutoff_hz: float,
-            feedforward: bool = False) -> dict:
+            feedforward: bool = False, reaim: bool = False) -> dict:
     """One walk: ``request`` is ``{"lengths_mm": [...]}`` or ``{"goal": [x_m, y_m, yaw_deg]}``;
     a goal's walk is also measured against the goal, and the Kajita baseline walks its
     footsteps with the same timing (with the stabilizer); :func:`run_names`."""
     from cocomopl.analysis.feasibility import check_motion, tolerances, violations
     from cocomopl.ocp.settings import OCPSettings
-    from cocomopl.pipeline import generate_walk, goal_errors, kajita_for
+    from cocomopl.pipeline import generate_walk, goal_errors, kajita_for, reaiming_for
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
@@ -75,12 +83,11 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
     out = {**request, "steps": len(walk.steps), "duration_s": walk.motion.duration, "plan_checks": checks,
            "plan_violations": violations(checks, tolerances(float(np.median(np.diff(walk.motion.t)))))}
     weight = walk.robot.mass * 9.81
-    runs = {"stabilizer": (walk.motion, True, False), "no_stabilizer": (walk.motion, False, False),
-            "feedforward": (walk.motion, False, True)}
-    for name in run_names(goal is not None, feedforward):
-        motion, stabilizer, servo_feedforward = runs[name] if name != "kajita" else (kajita_for(walk), True, False)
+    for name in run_names(goal is not None, feedforward, reaim):
+        motion, (stabilizer, servo_feedforward, reaimed) = ((kajita_for(walk), (True, False, False)) if name == "kajita"
+                                                            else (walk.motion, RUNS[name]))
         rollout = simulate(sim, motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz,
-                           feedforward=servo_feedforward)
+                           feedforward=servo_feedforward, reaiming=reaiming_for(walk) if reaimed else None)
         out[name] = {
             "fell": rollout.fell,
             "fall_time_s": rollout.fall_time,
@@ -117,6 +124,8 @@ def main() -> int:
                         help="omnidirectional walks instead: random goal poses, footsteps planned within the model's range")
     parser.add_argument("--feedforward", action="store_true",
                         help="also simulate each walk without the stabilizer but with the servos' torque feedforward")
+    parser.add_argument("--reaim", action="store_true",
+                        help="also simulate each walk with footstep re-aiming, with and without the stabilizer")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--contact-time-constant-s", type=float, default=CONTACT_TIME_CONSTANT,
                         help="sole-floor contact softness in s (default: %(default)s)")
@@ -140,17 +149,18 @@ def main() -> int:
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
         results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s, model=args.model,
-                                                    reference_cutoff_hz=args.reference_cutoff_hz, feedforward=args.feedforward),
+                                                    reference_cutoff_hz=args.reference_cutoff_hz, feedforward=args.feedforward,
+                                                    reaim=args.reaim),
                                   sequences), total=len(sequences), desc="random walks", file=sys.stderr))
     unplanned = [r for r in results if "unplanned" in r]
     results = [r for r in results if "unplanned" not in r]
     if not results:
         parser.error(f"no walk could be planned: {unplanned[0]['unplanned']}")
     summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
-               "goals": args.goals, "feedforward": args.feedforward, "unplanned": unplanned, "walks": len(results),
+               "goals": args.goals, "feedforward": args.feedforward, "reaim": args.reaim, "unplanned": unplanned, "walks": len(results),
                "contact_time_constant_s": args.contact_time_constant_s, "reference_cutoff_hz": args.reference_cutoff_hz,
                "wall_time_s": time.perf_counter() - started}
-    runs = run_names(args.goals, args.feedforward)
+    runs = run_names(args.goals, args.feedforward, args.reaim)
     for name in runs:
         walked = [not r[name]["fell"] for r in results]
         summary[name] = {

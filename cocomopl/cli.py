@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 from pathlib import Path
@@ -447,6 +448,7 @@ def cmd_walk(args) -> int:
     payload = walk_report(request.pop("lengths"), out, args.model, _sim_settings(args), video=not args.no_video,
                           progress=not args.json, dt=args.dt, first_swing=args.first_swing, strict=args.strict,
                           command=args.command_line, refine_steps=args.refine, dataset=args.data, recover=args.recover,
+                          reaim=args.reaim,
                           **request)
     for message in payload["warnings"]:
         _warn(message)
@@ -459,6 +461,7 @@ def cmd_walk(args) -> int:
              *([f"ended {100 * payload['final_position_error_m']:.1f} cm and {payload['final_yaw_error_deg']:.1f} deg from the goal"]
                if "goal" in payload else []),
              *([_recovery_line(payload["recoveries"])] if args.recover else []),
+             *([_reaim_line(payload["reaimed"])] if args.reaim else []),
              f"report in {out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
     _emit(args, payload, "\n".join(lines))
     return 1 if payload["fell"] else 0
@@ -470,6 +473,14 @@ def _recovery_line(changes: list[dict]) -> str:
     moves = "; ".join(f"landing {c['landing'] + 1} moved {100 * c['shift_m'][0]:+.1f}, {100 * c['shift_m'][1]:+.1f} cm "
                       f"at {c['time_s']:.2f} s" for c in changes)
     return f"recovery by stepping: {moves}"
+
+
+def _reaim_line(changes: list[dict]) -> str:
+    if not changes:
+        return "footstep re-aiming: no step re-aimed"
+    worst = max(math.hypot(*c["stance_error_m"]) for c in changes)
+    return (f"footstep re-aiming: {len(changes)} steps re-aimed, their stance soles up to {100 * worst:.1f} cm "
+            "from the plan")
 
 
 def cmd_reproduce(args) -> int:
@@ -771,6 +782,9 @@ def _simulation_parsers(sub) -> None:
     walk.add_argument("--recover", action="store_true",
                       help="recovery by stepping: a push the stabilizer cannot absorb moves the swing foot's landing, "
                       "and the walk is generated again from there (docs/method.md#recovery-by-stepping)")
+    walk.add_argument("--reaim", action="store_true",
+                      help="footstep re-aiming: each step is aimed from where the stance sole was measured at the "
+                      "plan's landing, and the walk is generated again from there (docs/method.md#footstep-re-aiming)")
     _refine_options(walk)
     _simulation_options(walk)
     _json_option(walk)

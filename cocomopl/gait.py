@@ -100,13 +100,13 @@ def mean_yaw(left: float, right: float) -> float:
     return right + 0.5 * wrap_angle(left - right)
 
 
-def footsteps(robot: Robot, specs: list[StepSpec]) -> list[dict]:
+def footsteps(robot: Robot, specs: list[StepSpec], soles: dict[str, np.ndarray] | None = None) -> list[dict]:
     """Where each sole stands at each step's start and end, world frame (x forward, z up):
     ``"start"`` and ``"end"`` positions (3,) by side, and under ``"yaw"`` the soles' yaws
-    (rad) at the ``"start"`` and ``"end"``.  The walk starts with the soles side by side,
-    facing +x, the right one at y = -separation/2."""
+    (rad) at the ``"start"`` and ``"end"``.  The walk starts from the sole poses (x, y, yaw)
+    ``soles`` by side, by default side by side, facing +x, the right one at y = -separation/2."""
     separation = foot_separation(robot)
-    poses = initial_soles(robot)
+    poses = {side: np.array(pose, dtype=float) for side, pose in (soles or initial_soles(robot)).items()}
     out = []
     for spec in specs:
         start = {k: v.copy() for k, v in poses.items()}

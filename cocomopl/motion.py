@@ -137,6 +137,9 @@ class StepSpec:
         return replace(self, swing_side="right" if self.swing_side == "left" else "left")
 
 
+SAMPLED = ("q", "v", "tau", "wrenches", "contact", "zmp")  # a Motion's arrays with a row per sample, besides t
+
+
 @dataclass
 class Motion:
     """A whole-body motion, whoever produced it (OC, primitives, simulator, baseline).

@@ -32,7 +32,7 @@ from cocomopl.primitives.model_file import load_model
 from cocomopl.provenance import stamp
 from cocomopl.robot import DEFAULT_ROBOT, Robot
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
-from cocomopl.synthesis.world import place_steps
+from cocomopl.synthesis.world import place_steps, replace_stretch
 
 if TYPE_CHECKING:  # the simulator is imported where a walk is simulated
     from cocomopl.sim.perturbations import Push
@@ -105,6 +105,21 @@ def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
 
     landings = landings_of(walk.robot, walk.motion.steps)
     return StepRecovery(walk.robot, landings, walk.motion, generate, walk.model.footstep_range())
+
+
+def reaiming_for(walk: GeneratedWalk, dt: float = PLAN_DT):
+    """Footstep re-aiming for ``walk`` (:class:`~cocomopl.sim.reaiming.Reaiming`): each step
+    aimed from the measured stance sole at the walk's planned landing, within the model's
+    footstep range; its own model generates the changed walk, and the stretch between stops
+    that changed is placed again, every ``dt`` s (:func:`~cocomopl.synthesis.world.replace_stretch`)."""
+    from cocomopl.sim.reaiming import Reaiming
+
+    def generate(specs: Sequence[StepSpec], motion: Motion, step: int) -> Motion:
+        changed = replace_stretch(walk.robot, motion, generate_steps(walk.model, specs), step, dt)
+        changed.meta["footsteps"] = [landing.as_dict() for landing in landings_of(walk.robot, specs)]
+        return changed
+
+    return Reaiming(walk.robot, walk.motion, generate, walk.model.footstep_range())
 
 
 def check_plan_dt(dt: float) -> float:
@@ -248,16 +263,18 @@ def simulate_walk(
     video: Path | None = None,
     progress: bool = False,
     recovery=None,
+    reaiming=None,
 ):
     """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
 
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference
-    (the walk it ended up following, where ``recovery`` replanned it).
+    (the walk it ended up following, where ``recovery`` or ``reaiming`` replanned it).
     """
     from cocomopl.analysis.metrics import summary
 
-    rollout = rollout_of(robot, motion, settings, video, progress, recovery)
-    return rollout, summary(robot, rollout.measured, motion if recovery is None else recovery.motion)
+    rollout = rollout_of(robot, motion, settings, video, progress, recovery, reaiming)
+    replanner = recovery or reaiming
+    return rollout, summary(robot, rollout.measured, motion if replanner is None else replanner.motion)
 
 
 def simulation_record(measured: Motion) -> dict:
@@ -275,10 +292,12 @@ def rollout_of(
     video: Path | None = None,
     progress: bool = False,
     recovery=None,
+    reaiming=None,
 ):
     """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo as ``settings`` say
     (:func:`~cocomopl.sim.rollout.simulate`); with ``video``, also rendered there (MP4);
-    ``recovery``: recovery by stepping (:func:`recovery_for`)."""
+    ``recovery``: recovery by stepping (:func:`recovery_for`); ``reaiming``: footstep
+    re-aiming (:func:`reaiming_for`)."""
     from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
@@ -290,7 +309,7 @@ def rollout_of(
     cutoff = REFERENCE_CUTOFF_HZ if settings.reference_cutoff_hz is None else settings.reference_cutoff_hz
     rollout = simulate(sim, motion, stabilizer=settings.stabilizer, progress=progress, reference_cutoff_hz=cutoff,
                        gains=settings.gains, feedforward=settings.feedforward, servos=settings.servos,
-                       pushes=settings.pushes, recovery=recovery)
+                       pushes=settings.pushes, recovery=recovery, reaiming=reaiming)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
     return rollout
@@ -312,6 +331,7 @@ def walk_report(
     landings: Sequence[Landing] | None = None,
     goal: Goal | Sequence[Goal] | None = None,
     recover: bool = False,
+    reaim: bool = False,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -329,7 +349,9 @@ def walk_report(
     interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
     :func:`generate_walk`'s; ``settings`` say how the walk is simulated (:class:`SimSettings`).
     With ``recover`` a push the stabilizer cannot absorb moves a landing and the walk is
-    generated again (:func:`recovery_for`; the report's ``recoveries``).
+    generated again (:func:`recovery_for`; the report's ``recoveries``).  With ``reaim`` each
+    step is aimed from the measured stance sole at its planned landing (:func:`reaiming_for`;
+    the report's ``reaimed``).
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -341,6 +363,8 @@ def walk_report(
     if recover and (refine_steps or not settings.stabilizer):
         raise Error("recovery by stepping needs the stabilizer, and replans with the primitives: "
                     "it cannot be combined with --no-stabilizer or --refine")
+    if reaim and (refine_steps or recover):
+        raise Error("footstep re-aiming replans with the primitives: it cannot be combined with --refine or --recover")
     omni = lengths is None
     dataset = bundled_dataset_path(dataset, omni) if refine_steps else None
     provenance = walk_provenance(command, model_path, omni, dataset=dataset)
@@ -351,10 +375,11 @@ def walk_report(
             refined_walk, refined = refine(walk.motion, dataset, progress)
             planned["refined"] = refined_walk.motion
         recovery = recovery_for(walk, dt or PLAN_DT) if recover else None
+        reaiming = reaiming_for(walk, dt or PLAN_DT) if reaim else None
         rollout, metrics = simulate_walk(walk.robot, planned["refined" if refine_steps else "generated"], settings,
-                                         work / "walk.mp4" if video else None, progress, recovery)
-        if recovery is not None and recovery.replanned:
-            planned["replanned"] = recovery.motion
+                                         work / "walk.mp4" if video else None, progress, recovery, reaiming)
+        if (recovery is not None and recovery.replanned) or (reaiming is not None and reaiming.reaimed):
+            planned["replanned"] = (recovery or reaiming).motion
         motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
@@ -370,6 +395,7 @@ def walk_report(
             **simulation_record(rollout.measured),
             "pushes": rollout.measured.meta["pushes"],
             **({"recoveries": rollout.measured.meta["recoveries"]} if recover else {}),
+            **({"reaimed": rollout.measured.meta["reaimed"]} if reaim else {}),
             **metrics,
             "generation_s": walk.generation_s,
             "placement_s": walk.placement_s,

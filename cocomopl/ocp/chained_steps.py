@@ -18,7 +18,7 @@ from tqdm import tqdm
 
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, footsteps
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import SAMPLED, Motion, StepSpec
 from cocomopl.ocp.problems import translate_state, turn_state
 from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import solve_transition
@@ -77,18 +77,10 @@ def concatenate(steps: list[Motion]) -> Motion:
         offset += m.t[-1] - m.t[0]
         count += n
 
-    def joined(field: str) -> np.ndarray:
-        return np.concatenate([getattr(m, field)[:n] for m, n, _ in parts])
-
     first = steps[0]
     return Motion(
         t=np.concatenate([t for _, _, t in parts]),
-        q=joined("q"),
-        v=joined("v"),
-        tau=joined("tau"),
-        wrenches=joined("wrenches"),
-        contact=joined("contact"),
-        zmp=joined("zmp"),
+        **{field: np.concatenate([getattr(m, field)[:n] for m, n, _ in parts]) for field in SAMPLED},
         phases=phases,
         impacts=np.array(impacts, dtype=int),
         steps=[s for m in steps for s in m.steps],

@@ -30,6 +30,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import Motion
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
 from cocomopl.sim.perturbations import Push
+from cocomopl.sim.reaiming import Reaiming
 from cocomopl.sim.recovery import StepRecovery
 from cocomopl.sim.servos import CommandChannel, ServoSettings, with_gains
 from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, gains_for
@@ -42,7 +43,7 @@ CONTACT_FORCE = 1.0  # N: a sole with less than this is in the air
 # Measured on 20 random walks of seeds 0 and 1 with the stabilizer, the median peak force
 # went from 1.51 and 1.45 to 1.36 and 1.37 x weight; README "Stage 3" has the rest.
 REFERENCE_CUTOFF_HZ = 15.0
-RECOVERY_BLEND_S = 0.1  # s over which the commands move onto a walk replanned by recovery
+REPLAN_BLEND_S = 0.1  # s over which the commands move onto a walk replanned while it is played
 
 
 @dataclass
@@ -129,6 +130,7 @@ def simulate(
     servos: ServoSettings | None = None,
     pushes: Sequence[Push] = (),
     recovery: StepRecovery | None = None,
+    reaiming: Reaiming | None = None,
 ) -> Rollout:
     """Play ``motion`` on the simulated robot with joint position control.
 
@@ -155,6 +157,9 @@ def simulate(
     recovery : recovery by stepping (:class:`~cocomopl.sim.recovery.StepRecovery`, needs the
         stabilizer): where a push carries the capture point off the stance sole, the walk is
         generated again with the swing foot's landing moved, and followed from then on
+    reaiming : footstep re-aiming (:class:`~cocomopl.sim.reaiming.Reaiming`): each step is
+        aimed from the measured stance sole at the original plan's landing, the walk
+        generated again, and followed from then on
 
     Returns
     -------
@@ -173,6 +178,8 @@ def simulate(
     control = None if gains is None else Stabilizer(sim, motion, gains)
     if recovery is not None and control is None:
         raise Error("recovery by stepping needs the stabilizer")
+    if recovery is not None and reaiming is not None:
+        raise Error("recovery by stepping and footstep re-aiming each replan the walk: use one of them")
     channel = CommandChannel(servos, model.opt.timestep, sim.robot.nu)
     every = max(int(round(record_dt / model.opt.timestep)), 1)
     n_settle = int(round(settle / model.opt.timestep))
@@ -187,14 +194,19 @@ def simulate(
         command = reference(max(time, t0))
         if control is not None:
             command = command + control.correction(data, max(time, t0))
-        if recovery is not None and time >= t0 and i % every == 0:
-            replanned = _recovered(sim, data, control, recovery, time - t0)
-            if replanned is not None:
-                reference = _blended(reference, _reference_joints(replanned, model.opt.timestep, reference_cutoff_hz, servo),
-                                     time, RECOVERY_BLEND_S)
+        replanned = None
+        if time >= t0 and i % every == 0:
+            if recovery is not None:
+                replanned = _recovered(sim, data, control, recovery, time - t0)
+            elif reaiming is not None:
+                replanned = reaiming.check(time - t0, measured_soles(sim, data))
+        if replanned is not None:
+            reference = _blended(reference, _reference_joints(replanned, model.opt.timestep, reference_cutoff_hz, servo),
+                                 time, REPLAN_BLEND_S)
+            if control is not None:
                 control.follow(replanned)
-                motion = replanned
-                n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
+            motion = replanned
+            n_total = n_settle + int(np.ceil((motion.duration + hold) / model.opt.timestep))
         sim.command(data, channel(command))
         if pushes:
             data.xfrc_applied[sim.base_body, :3] = sum(push.force_at(time - t0) for push in pushes)
@@ -217,6 +229,8 @@ def simulate(
     measured.meta["pushes"] = [asdict(push) for push in pushes]
     if recovery is not None:
         measured.meta["recoveries"] = [change.as_dict() for change in recovery.replanned]
+    if reaiming is not None:
+        measured.meta["reaimed"] = [change.as_dict() for change in reaiming.reaimed]
     return Rollout(measured, np.array(rows["qpos"]), fell, fall_time)
 
 
@@ -227,10 +241,18 @@ def _recovered(sim: SimModel, data: mujoco.MjData, control: Stabilizer, recovery
     stance = control.stance(time)
     if stance is None:
         return None
-    site = sim.sole_sites[stance]
-    rotation = data.site_xmat[site].reshape(3, 3)
-    sole = (data.site_xpos[site][:2].copy(), float(np.arctan2(rotation[1, 0], rotation[0, 0])))
-    return recovery.check(time, control.dcm_error, control.omega, sole)
+    x, y, yaw = measured_soles(sim, data)[stance]
+    return recovery.check(time, control.dcm_error, control.omega, (np.array([x, y]), float(yaw)))
+
+
+def measured_soles(sim: SimModel, data: mujoco.MjData) -> dict[str, np.ndarray]:
+    """The soles' world poses (x, y, yaw) in the simulation's state, by side."""
+    out = {}
+    for side in SIDES:
+        site = sim.sole_sites[side]
+        rotation = data.site_xmat[site].reshape(3, 3)
+        out[side] = np.array([*data.site_xpos[site][:2], np.arctan2(rotation[1, 0], rotation[0, 0])])
+    return out
 
 
 def _blended(old, new, start: float, span: float):

@@ -17,7 +17,7 @@ from scipy.interpolate import CubicSpline
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
 from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan
 from cocomopl.kinematics import flat_placement
-from cocomopl.motion import Motion
+from cocomopl.motion import SAMPLED, Motion
 from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
@@ -127,11 +127,14 @@ def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp)
     }
 
 
-def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> Motion:
-    """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds."""
+def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005,
+                soles: dict[str, np.ndarray] | None = None) -> Motion:
+    """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds,
+    starting from the sole poses ``soles`` (:func:`~cocomopl.gait.footsteps`; default: side
+    by side at the origin)."""
     model, data = robot.model, robot.model.createData()
     n_joints = len(robot.joint_names)
-    feet_per_step = footsteps(robot, [s.spec for s in steps])
+    feet_per_step = footsteps(robot, [s.spec for s in steps], soles)
     ts, qs, zmps, contacts, phases, starts, impacts, ground = [], [], [], [], [], [], [], []
     offset, count = 0.0, 0
     for k, (step, feet) in enumerate(zip(steps, feet_per_step)):
@@ -196,3 +199,45 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005) -> 
     return motion
 
 
+
+
+def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], step: int, dt: float = 0.005) -> Motion:
+    """``motion`` with the stretch of steps from a start to a stop that holds ``step`` placed
+    anew from ``steps``, the whole walk's predicted steps, of which only that stretch changed.
+
+    A walk through several goals stands still, feet side by side, between its stretches, so
+    one can be placed alone and joined to the others where they stand: a change then costs
+    the placement of its stretch, not of the whole walk.  Later stretches keep their samples,
+    moved in time by the change of the stretch's duration.
+    """
+    specs = [s.spec for s in steps]
+    first = max(k for k in range(step + 1) if specs[k].kind == "start")
+    last = next(k for k in range(step, len(specs)) if specs[k].kind == "stop")
+    if len(specs) != len(motion.steps) or specs[:first] != motion.steps[:first] or specs[last + 1 :] != motion.steps[last + 1 :]:
+        raise ValueError("only the stretch holding the changed step may differ from the motion's steps")
+    feet = footsteps(robot, specs)[first]
+    soles = {side: np.array([*feet["start"][side][:2], feet["yaw"]["start"][side]]) for side in SIDES}
+    stretch = place_steps(robot, steps[first : last + 1], dt, soles)
+    a = int(motion.step_starts[first])
+    b = int(motion.step_starts[last + 1]) if last + 1 < len(specs) else motion.n
+    t_new = stretch.t + motion.t[a]
+    shift = (len(stretch.t) + a) - b  # of the later samples' indices
+    later_t = motion.t[b:] + (t_new[-1] - motion.t[b]) if b < motion.n else motion.t[b:]
+
+    impacts = [int(i) for i in motion.impacts if i < a] + [int(i) + a for i in stretch.impacts]
+    if b < motion.n:  # the stretch's last sample and the next one share their time
+        impacts.append(a + len(stretch.t) - 1)
+    impacts += [int(i) + shift for i in motion.impacts if i >= b]
+    return Motion(
+        t=np.concatenate([motion.t[:a], t_new, later_t]),
+        **{field: np.concatenate([getattr(motion, field)[:a], getattr(stretch, field), getattr(motion, field)[b:]])
+           for field in SAMPLED},
+        phases=[p for p in motion.phases if p[1] < a] + [(k, f + a, l + a) for k, f, l in stretch.phases]
+        + [(k, f + shift, l + shift) for k, f, l in motion.phases if f >= b],
+        impacts=np.array(impacts, dtype=int),
+        steps=specs,
+        step_starts=np.concatenate([motion.step_starts[:first], stretch.step_starts + a, motion.step_starts[last + 1 :] + shift]),
+        joint_names=list(motion.joint_names),
+        robot=motion.robot,
+        meta={**motion.meta, **stretch.meta},
+    )
