@@ -41,7 +41,8 @@ def test_a_reaimed_step_lands_where_the_plan_did_from_where_the_robot_stands(wal
     step = 2
     side = stance_of(specs, step)
     planned = sole_poses(walk.robot, specs)[step][side]
-    measured = planned + np.array([-0.006, 0.004, math.radians(0.5)])
+    outward = 1.0 if side == "left" else -1.0  # away from the swinging sole: its footstep widens, within the range
+    measured = planned + np.array([-0.006, outward * 0.004, math.radians(0.5)])
     new, miss = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
     assert miss < 1e-9
     poses, landed = sole_poses(walk.robot, new), landing_targets(walk.robot, new)
@@ -73,10 +74,10 @@ def test_a_start_step_is_not_reaimed_and_a_stops_landing_repeats_the_footstep_be
     assert new[stop].start_footstep == new[stop - 1].end_footstep
 
 
-def test_an_aim_the_feet_clearance_refuses_corrects_less(walk):
+def test_an_aim_beyond_the_learned_range_corrects_less(walk):
     specs = list(walk.motion.steps)
     targets = landing_targets(walk.robot, specs)
-    # a step whose swing sole closes up to the stance sole: aiming it further in collides
+    # a step whose swing sole closes up to the stance sole, at the range's edge: aiming it further in leaves the range
     step = next(k for k in range(1, len(specs) - 1) if specs[k].end_footstep.width == 0.0 and specs[k - 1].kind != "start")
     side = stance_of(specs, step)
     towards_swing = -1.0 if side == "left" else 1.0
@@ -84,7 +85,7 @@ def test_an_aim_the_feet_clearance_refuses_corrects_less(walk):
     measured = planned + np.array([0.0, towards_swing * 0.03, 0.0])
     new, miss = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
     assert miss > 0.01
-    assert new[step].end_footstep.width >= LIMITS["width"][0] - 0.01 - 1e-9
+    assert new[step].end_footstep.width >= LIMITS["width"][0] - 1e-9
 
 
 def test_each_step_is_reaimed_once_after_its_stance_sole_settled(walk):

@@ -17,8 +17,8 @@ robot with a reference on the soles it stands on.
 What cannot be re-aimed: a start step (its stance sole has not moved since the walk or the
 stop before it began) and a stop's landing, which repeats the footstep before it
 (:mod:`cocomopl.planning.footsteps`).  Footsteps are kept within the model's learned range,
-widened by ``MARGIN``, and an aim the feet's clearance refuses is tried again at half the
-correction, then with none (the step keeps its footstep from the measured sole).
+and an aim the feet's clearance refuses is tried again at half the correction, then with
+none (the step keeps its footstep from the measured sole).
 """
 
 from __future__ import annotations
@@ -38,11 +38,6 @@ from cocomopl.robot import Robot
 
 SETTLED = 0.2  # fraction of a single support after which its stance sole is taken as settled
 SHARES = (1.0, 0.5, 0.0)  # of the measured error a step is aimed to correct, tried in turn
-# how far a re-aimed footstep may leave the learned range: the errors it corrects are
-# millimetres, and a gait on the range's edge (a side step's closing footstep at width 0)
-# could otherwise never be corrected inwards.  Not where the range is one value: a straight
-# model is re-aimed in length only
-MARGIN = {"length": 0.01, "width": 0.01, "turn": math.radians(1.0)}
 
 
 @dataclass
@@ -92,14 +87,11 @@ def _with_footsteps(spec: StepSpec, start: Footstep, end: Footstep) -> StepSpec:
 
 
 def _within(footstep: Footstep, limits: dict[str, tuple[float, float]]) -> Footstep:
-    """``footstep`` clipped to ``limits`` widened by ``MARGIN``; a parameter whose limits are
-    one value (one the model did not learn) is set to it."""
-    values = []
-    for key in Footstep._fields:
-        low, high = limits[key]
-        margin = MARGIN[key] if high > low else 0.0
-        values.append(float(np.clip(getattr(footstep, key), low - margin, high + margin)))
-    return Footstep(*values)
+    """``footstep`` clipped to ``limits``: beyond the learned range the model extrapolates, and
+    a stop that repeats such a footstep lands hard (tuned on random goals of seeds 12-14:
+    1 cm beyond it, the largest peak without the stabilizer was 2.52 x weight, within it 1.76).
+    A parameter whose limits are one value (one the model did not learn) is set to it."""
+    return Footstep(*(float(np.clip(getattr(footstep, key), *limits[key])) for key in Footstep._fields))
 
 
 def _clear(robot: Robot, side: str, footstep: Footstep) -> bool:
@@ -127,8 +119,7 @@ def reaimed_specs(
     the footstep from there to ``targets[step]`` (the original plan's landing), or to a
     point ``1 - share`` of the stance error short of it where the feet's clearance refuses
     the full aim; the step after starts from that footstep.  Both footsteps are kept within
-    the learned footstep range ``limits`` (``length``, ``width``, ``turn``) widened by
-    ``MARGIN``.  Later steps keep their footsteps, so they land where the original plan put
+    the learned footstep range ``limits`` (``length``, ``width``, ``turn``).  Later steps keep their footsteps, so they land where the original plan put
     them.
     """
     spec = specs[step]
