@@ -124,6 +124,13 @@ def footsteps(robot: Robot, specs: list[StepSpec], soles: dict[str, np.ndarray] 
     return out
 
 
+def sole_poses(robot: Robot, specs: list[StepSpec]) -> list[dict[str, np.ndarray]]:
+    """Per step of ``specs``, the soles' world poses (x, y, yaw) at its start, by side
+    (:func:`footsteps`)."""
+    return [{side: np.array([*feet["start"][side][:2], feet["yaw"]["start"][side]]) for side in OTHER_SIDE}
+            for feet in footsteps(robot, specs)]
+
+
 def phase_plan(spec: StepSpec) -> list[tuple[str, str | None]]:
     """(phase kind, foot in the air or None) per phase of a step."""
     swing, stance = spec.swing_side, OTHER_SIDE[spec.swing_side]

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from cocomopl.errors import Error
-from cocomopl.gait import OTHER_SIDE
+from cocomopl.gait import OTHER_SIDE, sole_poses
 from cocomopl.motion import StepSpec
 from cocomopl.pipeline import PLAN_DT, generate_walk, reaiming_for, recovery_for
 from cocomopl.sim.mujoco_model import build_sim_model
-from cocomopl.sim.reaiming import SETTLED, Reaiming, landing_targets, reaimed_specs, sole_poses
+from cocomopl.sim.reaiming import SETTLED, Reaiming, landing_targets, reaimed_specs
 from cocomopl.sim.rollout import simulate
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import replace_stretch

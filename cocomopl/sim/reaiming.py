@@ -31,7 +31,7 @@ from time import perf_counter
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.gait import OTHER_SIDE, check_footstep, footsteps, wrap_angle
+from cocomopl.gait import OTHER_SIDE, check_footstep, footsteps, sole_poses, wrap_angle
 from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.planning.footsteps import relative_footstep, same_footstep
 from cocomopl.robot import Robot
@@ -56,12 +56,6 @@ class Reaimed:
     def as_dict(self) -> dict:
         return {"time_s": self.time_s, "step": self.step, "stance_error_m": [float(v) for v in self.stance_error_m],
                 "stance_error_deg": self.stance_error_deg, "miss_m": self.miss_m, "generation_s": self.generation_s}
-
-
-def sole_poses(robot: Robot, specs: Sequence[StepSpec]) -> list[dict[str, np.ndarray]]:
-    """Per step of ``specs``, the soles' planned world poses (x, y, yaw) at its start, by side."""
-    return [{side: np.array([*feet["start"][side][:2], feet["yaw"]["start"][side]]) for side in OTHER_SIDE}
-            for feet in footsteps(robot, list(specs))]
 
 
 def landing_targets(robot: Robot, specs: Sequence[StepSpec]) -> list[np.ndarray]:
@@ -103,6 +97,13 @@ def _clear(robot: Robot, side: str, footstep: Footstep) -> bool:
     return True
 
 
+def stance_error(robot: Robot, specs: Sequence[StepSpec], step: int, stance: np.ndarray) -> np.ndarray:
+    """Where the measured stance sole of step ``step`` stands from the plan ``specs``: (x, y)
+    in m and yaw in rad."""
+    planned = sole_poses(robot, list(specs))[step][OTHER_SIDE[specs[step].swing_side]]
+    return np.array([*(stance[:2] - planned[:2]), wrap_angle(stance[2] - planned[2])])
+
+
 def reaimed_specs(
     robot: Robot,
     specs: Sequence[StepSpec],
@@ -119,19 +120,18 @@ def reaimed_specs(
     the footstep from there to ``targets[step]`` (the original plan's landing), or to a
     point ``1 - share`` of the stance error short of it where the feet's clearance refuses
     the full aim; the step after starts from that footstep.  Both footsteps are kept within
-    the learned footstep range ``limits`` (``length``, ``width``, ``turn``).  Later steps keep their footsteps, so they land where the original plan put
-    them.
+    the learned footstep range ``limits`` (``length``, ``width``, ``turn``).  Later steps
+    keep their footsteps, so they land where the original plan put them.
     """
     spec = specs[step]
     before = specs[step - 1] if step > 0 else None
     side = OTHER_SIDE[spec.swing_side]
     if spec.kind == "start" or before is None or before.kind == "stop" or before.swing_side != side:
         return None
-    poses = sole_poses(robot, specs)
     # where the step before really landed: not refused for the clearance it did not keep
-    landed = _within(relative_footstep(robot, poses[step - 1][spec.swing_side], stance, side), limits)
-    planned = poses[step][side]
-    error = np.array([*(stance[:2] - planned[:2]), wrap_angle(stance[2] - planned[2])])
+    origin = sole_poses(robot, list(specs))[step - 1][spec.swing_side]
+    landed = _within(relative_footstep(robot, origin, stance, side), limits)
+    error = stance_error(robot, specs, step, stance)
     out = list(specs)
     out[step - 1] = _with_footsteps(before, before.start_footstep, landed)
     if spec.kind == "stop":  # its landing repeats the footstep before it
@@ -199,9 +199,9 @@ class Reaiming:
             motion = self.generate(specs, self.motion, step)
         except Error:  # the changed walk is refused (its checks or its placement): keep the plan
             return None
-        planned = sole_poses(self.robot, self.specs)[step][OTHER_SIDE[self.specs[step].swing_side]]
-        self.reaimed.append(Reaimed(time, step, (float(stance[0] - planned[0]), float(stance[1] - planned[1])),
-                                    math.degrees(wrap_angle(stance[2] - planned[2])), miss, perf_counter() - started))
+        error = stance_error(self.robot, self.specs, step, stance)
+        self.reaimed.append(Reaimed(time, step, (float(error[0]), float(error[1])), math.degrees(error[2]), miss,
+                                    perf_counter() - started))
         self.specs, self.motion = specs, motion
         return motion
 
@@ -217,4 +217,4 @@ class Reaiming:
         return None
 
 
-__all__ = ["SETTLED", "Reaimed", "Reaiming", "landing_targets", "reaimed_specs", "sole_poses"]
+__all__ = ["SETTLED", "Reaimed", "Reaiming", "landing_targets", "reaimed_specs", "stance_error"]

@@ -15,7 +15,7 @@ import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
-from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan
+from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan, sole_poses
 from cocomopl.kinematics import flat_placement
 from cocomopl.motion import SAMPLED, Motion
 from cocomopl.primitives.estimator import PredictedStep
@@ -215,9 +215,7 @@ def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], st
     last = next(k for k in range(step, len(specs)) if specs[k].kind == "stop")
     if len(specs) != len(motion.steps) or specs[:first] != motion.steps[:first] or specs[last + 1 :] != motion.steps[last + 1 :]:
         raise ValueError("only the stretch holding the changed step may differ from the motion's steps")
-    feet = footsteps(robot, specs)[first]
-    soles = {side: np.array([*feet["start"][side][:2], feet["yaw"]["start"][side]]) for side in SIDES}
-    stretch = place_steps(robot, steps[first : last + 1], dt, soles)
+    stretch = place_steps(robot, steps[first : last + 1], dt, sole_poses(robot, specs)[first])
     a = int(motion.step_starts[first])
     b = int(motion.step_starts[last + 1]) if last + 1 < len(specs) else motion.n
     t_new = stretch.t + motion.t[a]
