@@ -1,6 +1,6 @@
 """Generation and placement per step, straight against omnidirectional, side by side.
 
-M_gen with the bundled straight model and the 12-step walk to (1.0 m, 0.5 m, 90 deg) with
+M_gen with the bundled straight model and the walk to (1.0 m, 0.5 m, 90 deg) with
 the bundled omnidirectional model: generation (the primitives alone, caches built, median of
 50 runs) and placement (world placement, dynamics filter, limits, inverse dynamics) per step.
 

@@ -39,8 +39,8 @@ class FakeMotion:
 def test_each_sweep_continues_from_its_last_walk_and_each_length_keeps_the_cheaper_sweep(monkeypatch):
     calls = []
 
-    def fake_length_job(robot_name, settings, length, kinds, cyclic=None, walk_guess=None):
-        calls.append((length, None if walk_guess is None else float(walk_guess[0])))
+    def fake_length_job(robot_name, settings, length, kinds, cyclic=None, neighbour_walk=None):
+        calls.append((length, None if neighbour_walk is None else float(neighbour_walk[0])))
         seen = sum(1 for L, _ in calls if L == length)  # 1 in the first sweep to reach it, 2 in the other
         cost = {0.15: (1.0, 2.0), 0.2: (3.0, 1.0), 0.25: (5.0, 5.5)}[length][seen - 1]
         q = np.full((4, 10), cost)
@@ -68,7 +68,7 @@ def test_each_sweep_continues_from_its_last_walk_and_each_length_keeps_the_cheap
 def test_a_single_length_is_solved_once(monkeypatch):
     calls = []
 
-    def fake_length_job(robot_name, settings, length, kinds, cyclic=None, walk_guess=None):
+    def fake_length_job(robot_name, settings, length, kinds, cyclic=None, neighbour_walk=None):
         calls.append(length)
         return JobResult(motions={StepSpec("cyclic", length, length): FakeMotion(1.0, np.zeros((2, 8)))})
 

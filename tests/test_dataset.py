@@ -60,6 +60,17 @@ def test_gait_grids_give_each_gaits_two_footsteps_and_their_transitions_once(rob
     assert gait_footsteps(robot, [parse_gait_grid(DEFAULT_GAIT_GRID_TEXT)])[0][0].length == -0.15
 
 
+def test_a_transition_that_joins_both_consecutive_footsteps_and_a_gait_is_solved_once(robot):
+    from cocomopl.dataset.plan import gait_footsteps, parse_gait_grid
+
+    # the gait at 75 mm trails (75, 0, -6 deg) after leading (75, 40 mm, 6 deg): consecutive in
+    # the sorted order too, where the pair comes the other way round
+    footsteps, pairs = gait_footsteps(robot, [parse_gait_grid("75/40/6")])
+    assert list(footsteps) == sorted(footsteps) and pairs == ((footsteps[1], footsteps[0]),)
+    specs = training_specs(footsteps, pairs)
+    assert len(specs) == len(set(specs)) == 2 * 3 + 2
+
+
 @pytest.mark.parametrize("text, message", [
     ("150/100", "LENGTHS_MM/WIDTHS_MM/TURNS_DEG"), ("150,150/0/0", "repeat"), ("150/x/0", "not a number"),
 ])

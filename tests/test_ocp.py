@@ -152,9 +152,9 @@ def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(rob
 
     walks = []
 
-    def warm_up_walk(robot, footstep, settings, guess=None, controls=None):
-        walks.append(guess)
-        return SimpleNamespace(xs=["neighbour's" if guess is not None else "own"])
+    def warm_up_walk(robot, footstep, settings, guess=None, controls=None, neighbour=None):
+        walks.append(neighbour)
+        return SimpleNamespace(xs=["neighbour's" if neighbour is not None else "own"])
 
     def solve_with_retries(robot, spec, states, settings, guesses):
         ok = neighbour_works or guesses[0] == ["own"]
@@ -165,7 +165,7 @@ def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(rob
     monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
     neighbour = np.zeros((3, 2))
     solutions, info = ocp_solve.solve_length(robot, 0.2, replace(SMALL, ss_search_step=0.0), ("cyclic",),
-                                             walk_guess=neighbour)
+                                             neighbour_walk=neighbour)
     assert solutions["cyclic"] is not None
     assert walks == ([neighbour] if neighbour_works else [neighbour, None])
     assert info["duration_search"] == [{"ss_duration": SMALL.ss_duration, "cost": 1.0, "continued": neighbour_works}]
@@ -184,9 +184,9 @@ def test_a_continued_cyclic_step_that_needs_the_whole_budget_is_also_solved_afre
     settings = replace(SMALL, ss_search_step=0.0)
     walks = []
 
-    def warm_up_walk(robot, footstep, settings, guess=None, controls=None):
-        walks.append(guess)
-        return SimpleNamespace(xs=["neighbour's" if guess is not None else "own"])
+    def warm_up_walk(robot, footstep, settings, guess=None, controls=None, neighbour=None):
+        walks.append(neighbour)
+        return SimpleNamespace(xs=["neighbour's" if neighbour is not None else "own"])
 
     def solve_with_retries(robot, spec, states, settings, guesses):
         continued = guesses[0] == ["neighbour's"]
@@ -197,11 +197,33 @@ def test_a_continued_cyclic_step_that_needs_the_whole_budget_is_also_solved_afre
     monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
     monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
     neighbour = np.zeros((3, 2))
-    solutions, info = ocp_solve.solve_length(robot, 0.2, settings, ("cyclic",), walk_guess=neighbour)
+    solutions, info = ocp_solve.solve_length(robot, 0.2, settings, ("cyclic",), neighbour_walk=neighbour)
     assert walks == [neighbour, None]
     assert solutions["cyclic"].stats["cost"] == min(1.0, own_cost)
     assert info["duration_search"] == [{"ss_duration": SMALL.ss_duration, "cost": min(1.0, own_cost),
                                         "continued": own_cost > 1.0}]
+
+
+def test_a_continued_walk_takes_only_the_upper_body_from_its_neighbour(robot):
+    """Continuation's guess: the neighbour's torso, arm and head joints (positions and
+    velocities) on this footstep's kinematic guess, whose base and legs carry the soles to
+    this footstep's contacts."""
+    from cocomopl.ocp.solve import continued_guess, initial_states, warm_up_plan
+
+    plan = warm_up_plan(robot, 0.2, SMALL)
+    kinematic = np.array(initial_states(robot, plan, SMALL, "kinematic"))
+    neighbour = np.array(initial_states(robot, warm_up_plan(robot, 0.1, SMALL), SMALL, "kinematic"))
+    neighbour[:, 7:] += 0.05  # every joint position and velocity moved
+    xs = np.array(continued_guess(robot, plan, SMALL, neighbour))
+    nq = robot.model.nq
+    legs = np.array(robot.leg_joint_indices())
+    upper = np.setdiff1d(np.arange(robot.nu), legs)
+    np.testing.assert_array_equal(xs[0], plan.x0)
+    np.testing.assert_array_equal(xs[1:, 7 + upper], neighbour[1:, 7 + upper])
+    np.testing.assert_array_equal(xs[1:, nq + 6 + upper], neighbour[1:, nq + 6 + upper])
+    np.testing.assert_array_equal(xs[:, 7 + legs], kinematic[:, 7 + legs])
+    np.testing.assert_array_equal(xs[:, :7], kinematic[:, :7])
+    np.testing.assert_array_equal(xs[:, nq:nq + 6], kinematic[:, nq:nq + 6])
 
 
 def test_descent_finds_the_grid_minimum():

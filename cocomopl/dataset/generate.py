@@ -61,19 +61,22 @@ class JobResult:
 
 def length_job(
     robot_name: str, settings: dict, length: float | tuple, kinds: list[str], cyclic: Motion | None = None,
-    walk_guess: np.ndarray | None = None, walk_controls: list[np.ndarray] | None = None,
+    neighbour_walk: np.ndarray | None = None, walk_guess: np.ndarray | None = None,
+    walk_controls: list[np.ndarray] | None = None,
 ) -> JobResult:
     """The ``kinds`` among cyclic, start and stop steps of one length or footstep (runs in a worker:
     plain data in and out).  An already solved ``cyclic`` step fixes the start state;
-    ``walk_guess``, the warm-up walk of a neighbouring length or the model's (with its torques
-    ``walk_controls``), warm-starts this length's."""
+    ``neighbour_walk``, the warm-up walk of a neighbouring length, lends this length's its upper
+    body (continuation); ``walk_guess``, the model's walk (with its torques ``walk_controls``),
+    warm-starts it whole."""
     robot = Robot(robot_name)
     opts = OCPSettings.from_saved(settings)
     start_state = None
     if cyclic is not None:  # resumed: the solved cyclic step fixes S(L) and the timing
         start_state = np.concatenate([cyclic.q[0], cyclic.v[0]])
         opts = replace(opts, **phase_durations(cyclic))
-    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state, walk_guess, walk_controls)
+    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state, walk_guess, walk_controls,
+                                   neighbour_walk)
     result = JobResult(walk=info.get("walk"))
     for kind, solution in solutions.items():
         spec = length_steps(length)[kind]
@@ -467,8 +470,8 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
 
     Two sweeps run side by side, one up the lengths and one down, each length's warm-up walk
     (whose second cyclic step gives ``S(L)`` and whose steps warm-start the length's OCPs)
-    warm-started from the walk of the length solved before it in the same sweep, so that
-    neighbours stay on one solution branch.  Where the sweeps disagree, the length takes the
+    takes its upper body from the walk of the length solved before it in the same sweep
+    (:func:`~cocomopl.ocp.solve.continued_guess`), so that neighbours stay on one solution branch.  Where the sweeps disagree, the length takes the
     sweep whose OCPs converged more often, then the lower summed cost.  Footsteps are swept
     in the order of (length, width, turn).  Returns, per length (mm; a footstep's
     :attr:`~cocomopl.motion.Footstep.label`), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
@@ -511,7 +514,7 @@ def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettin
     one's warm-up walk from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
     futures = [executor.submit(length_job, robot_name, settings.as_dict(), L, kinds,
                                done.get(StepSpec.between("cyclic", as_footstep(L), as_footstep(L))),
-                               *guesses.get(L, (None, None)))
+                               None, *guesses.get(L, (None, None)))
                for L, kinds in todo.items()]
     collect(futures)
     return {as_footstep(L).label: {"chosen": "model" if L in guesses else "kinematic"} for L in todo}

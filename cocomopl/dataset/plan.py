@@ -31,9 +31,11 @@ DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
 
 
 # The steady gaits of the omnidirectional set: every combination of a length (backward, in
-# place, forward), a width (none, side steps) and a turn.  Turns stop at 12 degrees: at 24,
-# six of the twelve gaits that would turn put the feet within 10 mm of each other.
-DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300/0,100/0,12"
+# place, forward), a width (none, side steps) and a turn, so that the learned range, the box
+# the footstep planner plans in, holds training steps at its corners.  Turns stop at 12
+# degrees: at 24, six of the twelve gaits that would turn put the feet within 10 mm of each
+# other (the trailing foot toes in at width 0; at -150 mm, 17 degrees already do).
+DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300,400/0,75,150/0,12"
 
 
 def gait_footsteps(robot, grids) -> tuple[tuple[Footstep, ...], tuple[tuple[Footstep, Footstep], ...]]:
@@ -96,7 +98,7 @@ def training_specs(lengths: tuple, extra_transitions: tuple = ()) -> list[StepSp
     specs += [StepSpec.between("start", rest, f) for f in footsteps]
     pairs = list(itertools.pairwise(footsteps))
     pairs += [(as_footstep(a), as_footstep(b)) for a, b in extra_transitions]
-    for a, b in sorted(set(pairs)):
+    for a, b in sorted({tuple(sorted(pair)) for pair in pairs}):  # a pair given both ways is solved once
         specs += [StepSpec.between("transition", a, b), StepSpec.between("transition", b, a)]
     specs += [StepSpec.between("stop", f, rest) for f in footsteps]
     return specs

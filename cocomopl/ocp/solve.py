@@ -190,24 +190,47 @@ def warm_up_plan(robot: Robot, footstep: float | Footstep, settings: OCPSettings
 
 
 def warm_up_walk(robot: Robot, footstep: float | Footstep, settings: OCPSettings, guess: np.ndarray | None = None,
-                 controls: list[np.ndarray] | None = None) -> Solution:
+                 controls: list[np.ndarray] | None = None, neighbour: np.ndarray | None = None) -> Solution:
     """A short walk at one footstep (:func:`warm_up_plan`), from rest to rest.
 
     A single cyclic step cannot be solved for its own start state with a DDP solver, whose
     initial state is fixed; a walk settles into its gait by the second cyclic step, whose
     start is the cyclic state ``S(L)``.  The walk's steps also warm-start the single-step
-    OCPs of the same length.  ``guess``: states on the walk's knots, e.g. a solved walk of a
-    neighbouring length with the same phase timing (continuation) or the model's walk (a
-    grown length); None starts from the kinematic guess.  ``controls``: the guess's torques
-    (None: quasi-static); the model's walk at 230 mm took 75 iterations with its
-    torques, 200 (not converged) without, and the kinematic guess 90.
+    OCPs of the same length.  ``guess``: states on the walk's knots, e.g. the model's walk
+    (a grown length); None starts from the kinematic guess.  ``controls``: the guess's
+    torques (None: quasi-static); the model's walk at 230 mm took 75 iterations with its
+    torques, 200 (not converged) without, and the kinematic guess 90.  ``neighbour``: the
+    solved walk of a neighbouring footstep with the same phase timing (continuation), of
+    which only the upper body is taken (:func:`continued_guess`).
     """
     plan = warm_up_plan(robot, footstep, settings)
+    if neighbour is not None and len(neighbour) == state_count(plan.phases):
+        guess, controls = continued_guess(robot, plan, settings, neighbour), None
     # the walk only needs to settle into its gait, not to converge tightly
     fits = guess is not None and len(guess) == state_count(plan.phases)
     start = list(guess) if fits else "kinematic"
     return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, WALK_ITERATIONS,
                       controls if fits else None)
+
+
+def continued_guess(robot: Robot, plan: StepPlan, settings: OCPSettings, neighbour: np.ndarray) -> list[np.ndarray]:
+    """The kinematic guess of ``plan`` with the upper body (the joints off the leg chains:
+    positions and velocities) of a ``neighbour``'s solved states on the same knots.
+
+    The upper body is what the cost leaves nearly free, so it is what can land on another
+    solution branch; taking it from the neighbour keeps neighbours on one branch.  The base
+    and legs come from the kinematic guess, whose soles are where this plan's contacts hold
+    them: with the neighbour's whole states, whose soles stand a footstep away, a walk of
+    300 mm continued from 150 mm had not converged after 200 iterations (cost 160 times
+    its optimum), and the footstep was solved again afresh.
+    """
+    nq = robot.model.nq
+    upper = np.setdiff1d(np.arange(robot.nu), robot.leg_joint_indices())
+    columns = np.concatenate([7 + upper, nq + 6 + upper])
+    xs = initial_states(robot, plan, settings, "kinematic")
+    for x, y in zip(xs[1:], neighbour[1:]):
+        x[columns] = y[columns]
+    return xs
 
 
 def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
@@ -307,6 +330,7 @@ def solve_length(
     cyclic_start: np.ndarray | None = None,
     walk_guess: np.ndarray | None = None,
     walk_controls: list[np.ndarray] | None = None,
+    neighbour_walk: np.ndarray | None = None,
 ) -> tuple[dict[str, Solution | None], dict]:
     """The cyclic, start and stop steps of one length (or footstep), and the cyclic start state ``S(L)``.
 
@@ -316,8 +340,9 @@ def solve_length(
     of least cost (eq. 1 plus penalties) fixes the timing of this length's start and stop
     steps too.  ``cyclic_start`` is ``S(L)`` when the cyclic
     step is already solved (its timing is then that of ``settings``).  ``walk_guess`` warm-starts
-    the warm-up walk (:func:`warm_up_walk`; ``walk_controls`` its torques): continuation from a
-    neighbouring length, or the model's walk.
+    the warm-up walk (:func:`warm_up_walk`; ``walk_controls`` its torques), e.g. the model's
+    walk; ``neighbour_walk``, the warm-up walk of a neighbouring length, continues from its
+    upper body.
 
     Returns ``({kind: solution or None}, info)`` with ``info`` holding ``start_state``,
     ``durations`` (double, single support; s), ``duration_search``, ``attempts`` and ``walk``
@@ -341,8 +366,10 @@ def solve_length(
                 # branch, where it needs the whole budget (the same step of a denser design: 300
                 # iterations, 2.2 times the cost it has from its own walk, 0.7 rad away in the
                 # upper body): then it is also solved afresh, and the lower cost is kept
-                for start in [(walk_guess, walk_controls)] + ([(None, None)] if walk_guess is not None else []):
-                    walk = warm_up_walk(robot, footstep, opts, *start)
+                given = {"guess": walk_guess, "controls": walk_controls, "neighbour": neighbour_walk}
+                warm = walk_guess is not None or neighbour_walk is not None
+                for start in [given] + ([{}] if warm else []):
+                    walk = warm_up_walk(robot, footstep, opts, **start)
                     segment = walk_segment(robot, walk, "cyclic")
                     x0 = segment[0]
                     guesses = [segment, "kinematic", "static"]
@@ -351,7 +378,7 @@ def solve_length(
                     if solution is None:
                         continue
                     if tried[ss] is None or solution.stats["cost"] < tried[ss][0].stats["cost"]:
-                        tried[ss], continued = (solution, record, walk, x0, opts), start[0] is not None
+                        tried[ss], continued = (solution, record, walk, x0, opts), start is given
                     if solution.stats["iterations"] < opts.max_iterations:
                         break
                 kept = tried[ss][0] if tried[ss] else None
@@ -364,7 +391,7 @@ def solve_length(
             return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
         solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
     else:
-        walk = warm_up_walk(robot, footstep, settings, walk_guess, walk_controls)
+        walk = warm_up_walk(robot, footstep, settings, walk_guess, walk_controls, neighbour_walk)
     states = {key: cyclic_start}
     for kind in kinds:
         if kind == "cyclic":
