@@ -99,9 +99,8 @@ def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
     from cocomopl.sim.recovery import StepRecovery
 
     def generate(landings: Sequence[Landing]) -> Motion:
-        motion = place_steps(walk.robot, generate_steps(walk.model, walk_specs(walk.robot, landings)), dt)
-        motion.meta["footsteps"] = [landing.as_dict() for landing in landings]
-        return motion
+        return _noting_footsteps(place_steps(walk.robot, generate_steps(walk.model, walk_specs(walk.robot, landings)), dt),
+                                 landings)
 
     landings = landings_of(walk.robot, walk.motion.steps)
     return StepRecovery(walk.robot, landings, walk.motion, generate, walk.model.footstep_range())
@@ -116,10 +115,16 @@ def reaiming_for(walk: GeneratedWalk, dt: float = PLAN_DT):
 
     def generate(specs: Sequence[StepSpec], motion: Motion, step: int) -> Motion:
         changed = replace_stretch(walk.robot, motion, generate_steps(walk.model, specs), step, dt)
-        changed.meta["footsteps"] = [landing.as_dict() for landing in landings_of(walk.robot, specs)]
-        return changed
+        return _noting_footsteps(changed, landings_of(walk.robot, specs))
 
     return Reaiming(walk.robot, walk.motion, generate, walk.model.footstep_range())
+
+
+def _noting_footsteps(motion: Motion, landings: Sequence[Landing]) -> Motion:
+    """``motion`` with the ``landings`` it was planned on in its metadata (the report's and
+    the JSON's ``footsteps``)."""
+    motion.meta["footsteps"] = [landing.as_dict() for landing in landings]
+    return motion
 
 
 def check_plan_dt(dt: float) -> float:
@@ -200,7 +205,7 @@ def generate_walk(
     if lengths is not None:
         motion.meta["lengths_mm"] = [1000 * x for x in lengths]
     else:
-        motion.meta["footsteps"] = [landing.as_dict() for landing in landings_of(robot, specs)]
+        _noting_footsteps(motion, landings_of(robot, specs))
     messages = [str(w.message) for w in caught]
     error = motion.meta["plan_zmp_error_m"]
     if error > FILTER_WARNING_M:
