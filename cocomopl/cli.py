@@ -123,17 +123,16 @@ def _group_values(text: str) -> dict[str, float]:
 
 def _sim_settings(args):
     """The simulation the command line asks for (:class:`~cocomopl.pipeline.SimSettings`):
-    the options of :func:`_simulation_options`, and those of :func:`_servo_options` and
-    ``--push`` where the command has them."""
+    the options of :func:`_simulation_options`, :func:`_servo_options` and ``--push`` (set by
+    default where a command has no such option)."""
     from cocomopl.pipeline import SimSettings
     from cocomopl.sim.servos import ServoSettings
 
     servos = ServoSettings(kp_scale=args.kp_scale, kv_time_s=args.kv_time_s, latency_s=args.latency_ms / 1000,
                            encoder_noise_rad=args.encoder_noise_mrad / 1000, seed=args.noise_seed)
-    return SimSettings(stabilizer=not getattr(args, "no_stabilizer", False),
+    return SimSettings(stabilizer=not args.no_stabilizer,
                        contact_time_constant=args.contact_time_constant_s, reference_cutoff_hz=args.reference_cutoff_hz,
-                       feedforward=getattr(args, "feedforward", False), sim_model=args.sim_model, servos=servos,
-                       pushes=tuple(getattr(args, "push", ())))
+                       feedforward=args.feedforward, sim_model=args.sim_model, servos=servos, pushes=tuple(args.push))
 
 
 def _walk_request(args) -> dict:
@@ -801,7 +800,8 @@ def _simulation_parsers(sub) -> None:
                                 "single-stage one with a fixed 4 cm crouch (legacy)")
     _simulation_options(reproduce)
     _json_option(reproduce)
-    reproduce.set_defaults(func=cmd_reproduce)
+    # the paper's comparison: every walk with the stabilizer, without feedforward or pushes
+    reproduce.set_defaults(func=cmd_reproduce, no_stabilizer=False, feedforward=False, push=[])
 
     simulate = sub.add_parser("simulate", help="run a motion in MuJoCo with joint position control and measure it")
     simulate.add_argument("file", metavar="MOTION.h5", help="motion HDF5 file (e.g. from 'cocomopl generate')")
@@ -810,7 +810,7 @@ def _simulation_parsers(sub) -> None:
     _servo_options(simulate)
     _simulation_options(simulate)
     _json_option(simulate)
-    simulate.set_defaults(func=cmd_simulate)
+    simulate.set_defaults(func=cmd_simulate, push=[])
 
 
 def _tool_parsers(sub) -> None:
