@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cocomopl.dynamics import inverse_dynamics_with_contacts
-from cocomopl.synthesis.upper_body_limits import MARGIN, difference_operators, limit_upper_body, upper_body_joints
+from cocomopl.synthesis.upper_body_limits import MARGIN, difference_operators, limit_upper_body
 
 
 def swinging_arms(robot, amplitude: float, frequency: float):
@@ -20,7 +20,7 @@ def swinging_arms(robot, amplitude: float, frequency: float):
 
 
 def test_the_upper_body_of_talos_is_its_torso_arms_and_head(robot):
-    names = {robot.joint_names[i] for i in upper_body_joints(robot)}
+    names = {robot.joint_names[i] for i in robot.upper_body_joint_indices()}
     assert names == {n for n in robot.joint_names if n.startswith(("torso_", "arm_", "head_"))}
 
 
@@ -28,7 +28,7 @@ def test_difference_operators_reproduce_inverse_dynamics_velocities_and_accelera
     t, q, contact, impacts = swinging_arms(robot, 0.3, 1.0)
     V, A, instant = difference_operators(t, impacts)
     v, _, _ = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
-    upper = upper_body_joints(robot)
+    upper = robot.upper_body_joint_indices()
     angles = np.zeros((instant[-1] + 1, len(upper)))
     angles[instant] = q[:, 7 + upper]
     np.testing.assert_allclose(V @ angles, v[:, 6 + upper], atol=1e-9)
@@ -43,7 +43,7 @@ def test_a_small_upper_body_change_moves_the_torque_as_the_inertia_rows_predict(
 
     t, q, contact, impacts = swinging_arms(robot, 0.3, 1.0)
     V, A, instant = difference_operators(t, impacts)
-    upper = upper_body_joints(robot)
+    upper = robot.upper_body_joint_indices()
     elbow = list(upper).index(robot.joint_names.index("arm_right_4_joint"))
     change = np.zeros((instant[-1] + 1, len(upper)))
     change[20, elbow] = 1e-5
@@ -62,7 +62,7 @@ def test_a_small_upper_body_change_moves_the_torque_as_the_inertia_rows_predict(
 @pytest.mark.parametrize("amplitude,frequency", [(0.25, 3.0), (0.4, 2.5)])
 def test_arms_over_their_limits_are_brought_within_them_and_the_legs_do_not_move(robot, amplitude, frequency):
     t, q, contact, impacts = swinging_arms(robot, amplitude, frequency)
-    upper = upper_body_joints(robot)
+    upper = robot.upper_body_joint_indices()
     v, tau, _ = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
     before = max(np.max(np.abs(tau[:, upper]) / robot.tau_max[upper]), np.max(np.abs(v[:, 6 + upper]) / robot.v_max[upper]))
     assert before > 1.1  # the swing asks too much of the arms
@@ -79,7 +79,7 @@ def test_arms_over_their_limits_are_brought_within_them_and_the_legs_do_not_move
 
 def test_arms_beyond_their_position_limits_are_brought_back(robot):
     t, q, contact, impacts = swinging_arms(robot, 0.6, 0.5)  # elbows and a shoulder swing past their stops
-    upper = upper_body_joints(robot)
+    upper = robot.upper_body_joint_indices()
     excess = lambda angles: np.max(np.maximum(robot.q_lower[upper] - angles, angles - robot.q_upper[upper]))  # noqa: E731
     assert excess(q[:, 7 + upper]) > 0.05
     corrected, report = limit_upper_body(robot, t, q, contact, impacts)

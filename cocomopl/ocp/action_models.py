@@ -45,7 +45,7 @@ def torque_cost(state, nu: int) -> crocoddyl.CostModelResidual:
 def posture_cost(robot: Robot, state, nu: int, x_ref: np.ndarray, settings: OCPSettings):
     """Weak pull towards a reference state; resolves null-space drift (a small J_pen term)."""
     joints = np.full(robot.nu, settings.w_posture)
-    joints[np.setdiff1d(np.arange(robot.nu), robot.leg_joint_indices())] = settings.w_upper_posture
+    joints[robot.upper_body_joint_indices()] = settings.w_upper_posture
     weights = np.concatenate(
         [
             np.zeros(3),  # base position is free: the step moves it

@@ -204,10 +204,11 @@ def warm_up_walk(robot: Robot, footstep: float | Footstep, settings: OCPSettings
     which only the upper body is taken (:func:`continued_guess`).
     """
     plan = warm_up_plan(robot, footstep, settings)
-    if neighbour is not None and len(neighbour) == state_count(plan.phases):
+    knots = state_count(plan.phases)
+    if neighbour is not None and len(neighbour) == knots:
         guess, controls = continued_guess(robot, plan, settings, neighbour), None
     # the walk only needs to settle into its gait, not to converge tightly
-    fits = guess is not None and len(guess) == state_count(plan.phases)
+    fits = guess is not None and len(guess) == knots
     start = list(guess) if fits else "kinematic"
     return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, WALK_ITERATIONS,
                       controls if fits else None)
@@ -225,7 +226,7 @@ def continued_guess(robot: Robot, plan: StepPlan, settings: OCPSettings, neighbo
     its optimum), and the footstep was solved again afresh.
     """
     nq = robot.model.nq
-    upper = np.setdiff1d(np.arange(robot.nu), robot.leg_joint_indices())
+    upper = robot.upper_body_joint_indices()
     columns = np.concatenate([7 + upper, nq + 6 + upper])
     xs = initial_states(robot, plan, settings, "kinematic")
     for x, y in zip(xs[1:], neighbour[1:]):

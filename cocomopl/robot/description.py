@@ -293,6 +293,11 @@ class Robot:
         """Actuated-joint indices of the chains from the pelvis to the soles."""
         return sorted(set(self.leg_chain("left")) | set(self.leg_chain("right")))
 
+    def upper_body_joint_indices(self) -> np.ndarray:
+        """Actuated-joint indices of the joints that carry no sole (on TALOS the torso, the arms
+        and the head)."""
+        return np.setdiff1d(np.arange(self.nu), self.leg_joint_indices())
+
     def joint_groups(self) -> dict[str, np.ndarray]:
         """Actuated-joint indices of the ``legs`` (the chains to the soles), the ``arms`` (the
         other joints named ``arm...``) and the ``torso`` (the rest, the head among them)."""

@@ -50,12 +50,6 @@ QP_MAX_INNER_ITERATIONS = 50
 QP_TOLERANCE = 1e-7  # N m, rad/s and rad of constraint violation; the margin leaves 5 %
 
 
-def upper_body_joints(robot: Robot) -> np.ndarray:
-    """Actuated-joint indices of the joints that carry no sole (on TALOS the torso, the arms
-    and the head)."""
-    return np.setdiff1d(np.arange(robot.nu), robot.leg_joint_indices())
-
-
 def difference_operators(t: np.ndarray, impacts: np.ndarray) -> tuple[sp.csr_matrix, sp.csr_matrix, np.ndarray]:
     """The linear maps from a joint's angle at each instant to its velocity and its
     interval acceleration at each sample, as :func:`~cocomopl.dynamics.inverse_dynamics_with_contacts`
@@ -159,7 +153,7 @@ def limit_upper_body(
     linearisation fails), the iterate that exceeds the limits least is returned and the
     report says by how much.
     """
-    upper = upper_body_joints(robot)
+    upper = robot.upper_body_joint_indices()
     V, A, instant = difference_operators(t, impacts)
     m, u = len(upper), instant[-1] + 1
     H = _smoothness_metric(u, m)

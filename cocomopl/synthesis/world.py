@@ -21,7 +21,7 @@ from cocomopl.motion import SAMPLED, Motion
 from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
-from cocomopl.synthesis.upper_body_limits import limit_upper_body, upper_body_joints
+from cocomopl.synthesis.upper_body_limits import limit_upper_body
 
 REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
 
@@ -115,7 +115,7 @@ def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp)
     Returns the configurations and the report of :func:`limit_upper_body`, from the first
     correction's excess to the last's.
     """
-    upper = 7 + upper_body_joints(robot)
+    upper = 7 + robot.upper_body_joint_indices()
     filtered = q[:, upper]
     q, first = limit_upper_body(robot, t, q, contact, impacts)
     q, _, _ = dynamics_filter(robot, t, q, contact, impacts, ground, zmp, passes=REFILTER_PASSES)
