@@ -56,10 +56,11 @@ def footstep_origin(landed: np.ndarray, side: str, length: float, width: float, 
 
 # What a footstep may ask of the robot (length, width in m; turn in rad).  Backward steps
 # are shorter than forward ones: the swing leg passes behind the hip, where the knee cannot
-# help.  Outward, 150 mm beyond the nominal separation keeps the stance hip's abduction
+# help.  Outward, 150 mm of side step beyond the nominal separation, and the 15 mm more a
+# 25-degree turn steps out (``planning.goal.turn_step_out``), keep the stance hip's abduction
 # within its limits.  Inward steps and turns are bounded by the feet themselves:
 # ``check_footstep`` refuses a footstep whose soles come closer than ``FEET_GAP``.
-FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.15), "turn": (-math.radians(25), math.radians(25))}
+FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.165), "turn": (-math.radians(25), math.radians(25))}
 FEET_GAP = 0.01  # m between the feet's meshes, both flat on the ground
 
 

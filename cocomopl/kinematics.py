@@ -193,6 +193,18 @@ def feet_geometry(robot: Robot) -> pin.GeometryModel:
     return feet
 
 
+def feet_distances(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """The smallest 3-D distance (m; negative where they overlap) between the two feet's meshes
+    at each configuration of ``q`` (n, nq)."""
+    feet = feet_geometry(robot)
+    data, geometry_data = robot.model.createData(), pin.GeometryData(feet)
+    distances = np.empty(len(q))
+    for k, qk in enumerate(q):
+        pin.computeDistances(robot.model, data, feet, geometry_data, qk)
+        distances[k] = min(r.min_distance for r in geometry_data.distanceResults)
+    return distances
+
+
 def flat_placement(x: float, y: float, yaw: float) -> pin.SE3:
     """A sole's placement flat on the ground at (x, y), turned by ``yaw`` (rad) about the
     vertical (exactly level and straight ahead at yaw 0)."""

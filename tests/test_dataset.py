@@ -47,12 +47,16 @@ def test_extra_transitions_parse_and_deduplicate():
 def test_gait_grids_give_each_gaits_two_footsteps_and_their_transitions_once(robot):
     from cocomopl.dataset.plan import DEFAULT_GAIT_GRID_TEXT, gait_footsteps, parse_gait_grid
     from cocomopl.motion import Footstep
+    from cocomopl.planning.goal import turn_step_out
 
     grid = parse_gait_grid("300,150/100/0,12")
     assert grid == ((0.15, 0.3), (0.1,), (0.0, pytest.approx(np.radians(12))))
     footsteps, pairs = gait_footsteps(robot, [grid])
-    # a gait leads with (length, width, turn) and trails with (length, 0, -turn)
-    assert Footstep(0.3, 0.1, grid[2][1]) in footsteps and Footstep(0.3, 0.0, -grid[2][1]) in footsteps
+    # a gait leads with (length, width + d, turn) and trails with (length, d, -turn), where both
+    # feet step out by d beyond 12 degrees only
+    turn = grid[2][1]
+    assert turn_step_out(turn) == turn_step_out(0.0) == 0.0 and 0.0 < turn_step_out(np.radians(-20)) < 0.015
+    assert Footstep(0.3, 0.1, turn) in footsteps and Footstep(0.3, 0.0, -turn) in footsteps
     assert len(footsteps) == 8 and len(pairs) == 4
     # a second grid adds its gaits; a gait in both counts once
     more, more_pairs = gait_footsteps(robot, [grid, parse_gait_grid("400,150/100,0/0")])
@@ -81,11 +85,16 @@ def test_bad_gait_grids_are_refused(text, message):
         parse_gait_grid(text)
 
 
-def test_a_gait_whose_feet_collide_is_refused(robot):
+def test_a_gait_out_of_range_is_refused_naming_it(robot):
     from cocomopl.dataset.plan import gait_footsteps, parse_gait_grid
 
-    with pytest.raises(Error, match=r"gait \(0 mm, 0 mm, 25 deg\).*at least 10 mm"):
-        gait_footsteps(robot, [parse_gait_grid("150/100/0"), parse_gait_grid("0/0/25")])
+    # the gaits step out at turns (test_planning), so none in range collides: 25 degrees at 0 mm
+    # is taken, 30 and a 160 mm side step at 25 degrees are not
+    gait_footsteps(robot, [parse_gait_grid("0/0/25")])
+    with pytest.raises(Error, match=r"gait \(0 mm, 0 mm, 30 deg\).*turn 30 deg is outside"):
+        gait_footsteps(robot, [parse_gait_grid("150/100/0"), parse_gait_grid("0/0/30")])
+    with pytest.raises(Error, match=r"gait \(150 mm, 160 mm, 25 deg\).*width 175 mm is outside"):
+        gait_footsteps(robot, [parse_gait_grid("150/160/25")])
 
 
 @pytest.mark.parametrize(
@@ -213,7 +222,9 @@ def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
     assert info["all_converged"] is True
     assert info["command"].startswith("cocomopl dataset generate")
     assert info["versions"]["crocoddyl"] == "3.2.1" and info["created"]
-    # solved with the default settings, so plain `cocomopl dataset generate` makes it again
-    assert info["settings"] == json.loads(json.dumps(OCPSettings().as_dict()))
+    # solved with the default settings, so plain `cocomopl dataset generate` makes it again;
+    # the sole gap added since then acts on turning steps only, which it has none of
+    assert OCPSettings.from_saved(info["settings"]) == OCPSettings()
+    assert set(OCPSettings().as_dict()) - set(info["settings"]) == {"sole_gap", "w_sole_gap"}
     assert main(["dataset", "check", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["ok"] is True

@@ -329,3 +329,58 @@ def test_load_transfer_term_hands_the_weight_over_linearly(robot, motions):
         ramp = 1.0 - np.arange(last - first) / (last - first)  # the left sole's share, 1 down to (almost) 0
         error[weight] = np.abs(shares - ramp).max()
     assert error[3e-3] < 0.5 * error[0.0], error
+
+
+def test_the_soles_gap_and_its_gradient_agree_with_the_meshes_and_finite_differences(robot):
+    import crocoddyl
+    import pinocchio as pin
+
+    from cocomopl.gait import foot_separation, footstep_pose
+    from cocomopl.kinematics import flat_placement, soles_distance
+    from cocomopl.ocp.action_models import SoleGapResidual, soles_gap
+
+    # side by side the rectangles' gap is the meshes'; turned, the corners come closer than
+    # the meshes' rounded toes and heels do: the gap errs on the safe side
+    separation, still = foot_separation(robot), flat_placement(0.0, 0.0, 0.0)
+    for length, width, turn in [(0.0, 0.0, 0.0), (0.0, 0.015, 25.0), (-0.15, 0.0, 17.0), (0.15, 0.015, 25.0)]:
+        landed = flat_placement(*footstep_pose(np.zeros(3), "right", length, width, -np.radians(turn), separation))
+        gap, meshes = soles_gap(robot, landed, still), soles_distance(robot, {"left": still, "right": landed})
+        assert meshes - 0.005 <= gap <= meshes + 1e-4, (length, width, turn)
+    assert soles_gap(robot, flat_placement(0.05, 0.1, 0.2), still) < 0  # overlapping soles have a negative gap
+
+    state = crocoddyl.StateMultibody(robot.model)
+    residual = SoleGapResidual(robot, state, "left", flat_placement(0.0, -0.085, 0.3), robot.model.nv - 6)
+    shared = crocoddyl.DataCollectorMultibody(robot.model.createData())
+    data = residual.createData(shared)
+    q = robot.q_ref.copy()
+    q[7:] += np.random.default_rng(0).normal(0.0, 0.1, robot.model.nq - 7)
+    x = np.concatenate([q, np.zeros(robot.model.nv)])
+
+    def gap_at(x):
+        pin.forwardKinematics(robot.model, shared.pinocchio, x[: robot.model.nq])
+        residual.calc(data, x)
+        return float(data.r[0])
+
+    pin.computeJointJacobians(robot.model, shared.pinocchio, x[: robot.model.nq])
+    gap = gap_at(x)
+    residual.calcDiff(data, x)
+    gradient = np.ravel(data.Rx).copy()
+    eps = 1e-7
+    differences = [(gap_at(state.integrate(x, eps * np.eye(state.ndx)[i])) - gap) / eps for i in range(state.ndx)]
+    np.testing.assert_allclose(gradient, differences, atol=1e-5)
+    assert np.abs(gradient).max() > 0.5  # the swing leg's joints move the sole
+
+
+def test_a_turning_swing_keeps_the_settings_gap_or_the_least_of_its_lift_off_and_landing(robot):
+    from cocomopl.kinematics import flat_placement
+    from cocomopl.ocp.problems import Phase, swing_gap
+    from cocomopl.ocp.settings import OCPSettings
+
+    settings, stance = OCPSettings(), flat_placement(0.0, 0.0, 0.0)
+    ahead = Phase("ss", 4, "left", (-0.3, 0.17), (0.3, 0.17), 0.0, 0.0)
+    assert swing_gap(robot, ahead, stance, settings) is None  # soles facing ahead keep to their lanes
+    turning = Phase("ss", 4, "left", (-0.3, 0.17), (0.3, 0.2), 0.0, np.radians(10))
+    assert swing_gap(robot, turning, stance, settings) == settings.sole_gap  # far apart at both ends
+    close = Phase("ss", 4, "left", (-0.3, 0.17), (0.0, 0.185), 0.0, np.radians(25))  # a 25-degree gait's landing
+    assert 0.0 < swing_gap(robot, close, stance, settings) < settings.sole_gap
+    assert swing_gap(robot, ahead, flat_placement(0.0, 0.0, 0.2), settings) is not None  # a turned stance sole

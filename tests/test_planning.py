@@ -23,7 +23,7 @@ from cocomopl.planning.footsteps import (
     walk_specs,
     write_landings,
 )
-from cocomopl.planning.goal import parse_goal, plan_through, plan_to_goal
+from cocomopl.planning.goal import parse_goal, plan_through, plan_to_goal, steady_gait
 
 from conftest import assert_one_line_error, run_cli
 
@@ -59,7 +59,24 @@ def test_straight_landings_make_exactly_the_straight_walk_of_their_lengths(robot
     assert walk_specs(robot, landings_of(robot, specs)) == specs
 
 
-@pytest.mark.parametrize("goal", [(1.0, 0.5, 90.0), (-0.5, 0.0, 0.0), (0.0, 0.4, 0.0), (0.5, -0.3, -45.0), (0.0, 0.0, -90.0)])
+@pytest.mark.parametrize("length", [-0.15, -0.075, 0.0, 0.075, 0.15, 0.3, 0.4])
+def test_a_gait_turning_25_degrees_steps_out_so_the_feet_stay_clear(robot, length):
+    """Toeing in or out by 25 degrees at the nominal width brings the soles too close at
+    short steps; the steady gait's step-out keeps both its footsteps clear at every length."""
+    turn = math.radians(25)
+    for lateral in (0.0, 0.15, -0.15):
+        lead, trail = steady_gait(length, lateral, turn)
+        assert lead.width > max(lateral, 0.0) and trail.width > max(-lateral, 0.0)
+        check_footstep(robot, "left", *lead)
+        check_footstep(robot, "right", *trail)
+    if length <= 0.0:
+        with pytest.raises(Error, match="from the left one"):
+            check_footstep(robot, "right", length, 0.0, -turn)
+    assert steady_gait(length, 0.1, 0.0) == (Footstep(length, 0.1, 0.0), Footstep(length, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("goal", [(1.0, 0.5, 90.0), (-0.5, 0.0, 0.0), (0.0, 0.4, 0.0), (0.5, -0.3, -45.0), (0.0, 0.0, -90.0),
+                                  (0.0, 0.0, 180.0)])
 def test_the_planner_ends_at_the_goal_on_footsteps_in_range_and_clear_of_each_other(robot, goal):
     x, y, yaw = goal
     specs = plan_to_goal(robot, (x, y, math.radians(yaw)))

@@ -33,8 +33,9 @@ DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
 # The steady gaits of the omnidirectional set: every combination of a length (backward, in
 # place, forward), a width (none, side steps) and a turn, so that the learned range, the box
 # the footstep planner plans in, holds training steps at its corners.  Turns stop at 12
-# degrees: at 24, six of the twelve gaits that would turn put the feet within 10 mm of each
-# other (the trailing foot toes in at width 0; at -150 mm, 17 degrees already do).
+# degrees, where the bundled set stops: beyond, the gaits step out (``planning.goal.
+# turn_step_out``) and the grid with 25 is a longer job than the 60 minutes it may take
+# (docs/method.md#omnidirectional-training-set).
 DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300,400/0,75,150/0,12"
 
 
@@ -42,7 +43,8 @@ def gait_footsteps(robot, grids) -> tuple[tuple[Footstep, ...], tuple[tuple[Foot
     """Footsteps and transitions for the steady gaits (length, width, turn) of one or more
     grids (each ``(lengths, widths, turns)``, :func:`parse_gait_grid`; the gaits are their
     union), as the footstep planner walks them (:mod:`cocomopl.planning.goal`): the leading
-    foot steps (length, width, turn), the trailing one (length, 0, -turn), and each gait's
+    foot steps (length, width + d, turn), the trailing one (length, d, -turn) (d:
+    :func:`~cocomopl.planning.goal.turn_step_out`), and each gait's
     transitions join the two.
 
     Raises

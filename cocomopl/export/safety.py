@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from cocomopl.analysis.feasibility import polygon_margin, support_polygon
 from cocomopl.export.grid import GridMotion, configurations, finite_differences, joint_torques
-from cocomopl.kinematics import feet_geometry
+from cocomopl.kinematics import feet_distances
 from cocomopl.robot import Robot
 
 POSITION_TOLERANCE = 1e-3  # rad beyond a joint limit
@@ -48,12 +48,7 @@ def zmp_margin(robot: Robot, grid: GridMotion, q: np.ndarray) -> dict:
 
 def foot_distance(robot: Robot, grid: GridMotion, q: np.ndarray) -> dict:
     """Smallest 3-D distance (m) between the two feet's meshes, and when."""
-    feet = feet_geometry(robot)
-    data, geometry_data = robot.model.createData(), pin.GeometryData(feet)
-    distances = np.empty(len(q))
-    for k, qk in enumerate(q):
-        pin.computeDistances(robot.model, data, feet, geometry_data, qk)
-        distances[k] = min(r.min_distance for r in geometry_data.distanceResults)
+    distances = feet_distances(robot, q)
     k = int(np.argmin(distances))
     return {"value": float(max(distances[k], 0.0)), "t": float(grid.t[k])}  # Coal reports penetration as < 0
 

@@ -17,7 +17,7 @@ import pinocchio as pin
 from cocomopl.gait import OTHER_SIDE, footstep_origin, footstep_pose
 from cocomopl.kinematics import flat_placement, inverse_kinematics
 from cocomopl.motion import StepSpec
-from cocomopl.ocp.action_models import contact_knot, impulse_knot
+from cocomopl.ocp.action_models import contact_knot, impulse_knot, soles_gap
 from cocomopl.ocp.settings import OCPSettings
 from cocomopl.robot import Robot, mirror_state
 
@@ -161,6 +161,16 @@ def _swing_guide(phase: Phase, s: float, clearance: float) -> pin.SE3:
     return pin.SE3(flat_placement(0.0, 0.0, yaw).rotation, np.array([xy[0], xy[1], z]))
 
 
+def swing_gap(robot: Robot, phase: Phase, stance: pin.SE3, settings: OCPSettings) -> float | None:
+    """The least gap (m) between the soles' rectangles through single-support ``phase``, if a
+    sole turns: ``settings.sole_gap``, or less where the swing sole lifts off or lands closer.
+    Soles that all face ahead need none: the swing's lane keeps them apart."""
+    if phase.yaw_from == phase.yaw_to == 0.0 and np.allclose(stance.rotation, np.eye(3)):
+        return None
+    ends = (_flat(phase.swing_from, phase.yaw_from), _flat(phase.swing_to, phase.yaw_to))
+    return min(settings.sole_gap, *(soles_gap(robot, end, stance) for end in ends))
+
+
 def _flat(xy: tuple[float, float], yaw: float = 0.0) -> pin.SE3:
     return flat_placement(xy[0], xy[1], yaw)
 
@@ -208,6 +218,7 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
             ]
         elif phase.kind == "ss":
             stance = {OTHER_SIDE[phase.swing]: feet[OTHER_SIDE[phase.swing]]}
+            gap = swing_gap(robot, phase, feet[OTHER_SIDE[phase.swing]], settings)
             for k in range(phase.knots):
                 s = (k + 1) / phase.knots
                 in_air = 0.25 <= s <= 0.75
@@ -222,6 +233,7 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
                         swing=phase.swing,
                         swing_guide=_swing_guide(phase, s, settings.clearance),
                         clearance=settings.clearance if in_air else -1.0,
+                        sole_gap=gap,
                     )
                 )
         elif phase.kind == "impact":

@@ -31,6 +31,10 @@ class OCPSettings:
     zmp_margin: float = 0.02
     clearance: float = 0.05
     swing_lateral_gap: float = 0.03
+    # where a sole turns, in place of the lane: the least gap (m) between the soles'
+    # rectangles through a swing, or less where it lifts off or lands closer
+    # (ocp.problems.swing_gap); the lane's gap, so that a swing keeps as far off either way
+    sole_gap: float = 0.03
     w_torque: float = 1e-2
     w_torque_rate: float = 5e-5  # on the torque rate, (N m / s)^2 s; 0 switches it off
     w_posture: float = 1.0
@@ -44,6 +48,9 @@ class OCPSettings:
     w_velocity: float = 1e-1
     w_constraint: float = 1e4
     w_limits: float = 1e5
+    # on the soles' gap, m^-2: 1 mm short costs 50, about a cyclic step's whole cost (the
+    # residual is in metres, where the wrench barriers' are in newtons)
+    w_sole_gap: float = 1e8
     # on the landing sole's velocity at touchdown, (m/s)^2: high enough that every sole lands
     # at under 1 cm/s.  The impulse model absorbs any landing speed for free, a stiff
     # position-controlled robot does not (0.5 m/s gave 4 x the weight in MuJoCo)

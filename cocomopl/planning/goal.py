@@ -1,7 +1,8 @@
 """A footstep planner to a goal pose: the fewest steps of one steady gait that end there.
 
 The gait repeats one pair of footsteps: the leading foot (the first to swing) steps
-``(length, max(lateral, 0), turn)``, the trailing foot ``(length, max(-lateral, 0), -turn)``.
+``(length, max(lateral, 0) + d, turn)``, the trailing foot ``(length, max(-lateral, 0) + d,
+-turn)``, where ``d`` (:func:`turn_step_out`) widens the stance at large turns.
 So every step advances by ``length`` and turns the walk by ``turn`` (toes out on the leading
 foot, in on the trailing one), and every pair moves it ``lateral`` sideways, always by the
 foot on that side stepping outward: stepping inward is limited by the feet colliding.  The
@@ -34,10 +35,29 @@ YAW_TOLERANCE_RAD = math.radians(0.1)
 YAW_WEIGHT_M = 0.3  # m per rad in the least squares: a sole's length
 
 
+# How far both feet step out at a 25-degree turn.  Toeing in (the trailing foot) or out (the
+# leading one) beyond 16 degrees brings the soles within FEET_GAP of each other at some length
+# from -150 to 400 mm unless the foot lands further out (``check_footstep``, 0.25 mm steps):
+# 0.75 mm at 17 degrees, 5 at 20, 11.5 at 25.  The step-out covers that at every degree.
+TURN_STEP_OUT_M = 0.015
+TURN_STEP_OUT_FROM = math.radians(12)
+TURN_STEP_OUT_AT = math.radians(25)
+
+
+def turn_step_out(turn: float) -> float:
+    """How far (m) both feet of a gait that turns ``turn`` rad a step land beyond their
+    sideways step: none up to 12 degrees (so the gaits of the 12-degree sets stay as they
+    were), then quadratic up to 15 mm at 25, so that the planner's least squares stays smooth.
+    Both feet step out, so a pair still moves ``lateral`` sideways."""
+    excess = max(abs(turn) - TURN_STEP_OUT_FROM, 0.0) / (TURN_STEP_OUT_AT - TURN_STEP_OUT_FROM)
+    return TURN_STEP_OUT_M * excess**2
+
+
 def steady_gait(length: float, lateral: float, turn: float) -> tuple[Footstep, Footstep]:
     """The leading and the trailing foot's footsteps of the steady gait that advances
     ``length`` m and turns ``turn`` rad a step and moves ``lateral`` m sideways a pair."""
-    return Footstep(length, max(lateral, 0.0), turn), Footstep(length, max(-lateral, 0.0), -turn + 0.0)
+    out = turn_step_out(turn)
+    return Footstep(length, max(lateral, 0.0) + out, turn), Footstep(length, max(-lateral, 0.0) + out, -turn + 0.0)
 
 
 def gait_specs(n: int, lead: str, length: float, lateral: float, turn: float) -> list[StepSpec]:
@@ -56,9 +76,10 @@ def _solve(robot: Robot, goal: np.ndarray, n: int, lead: str, limits: dict) -> t
     """The gait whose ``n`` landings from ``lead`` end at ``goal``, or None."""
     (l0, l1), (_, w1), (t0, t1) = limits["length"], limits["width"], limits["turn"]
     turn = min(t1, -t0)  # both feet take it, one toes out and the other toes in
-    if turn < 0 or w1 < 0 or l0 > l1:
+    lateral = w1 - turn_step_out(turn)  # the widest side step that still has room to turn
+    if turn < 0 or lateral < 0 or l0 > l1:
         return None
-    low, high = np.array([l0, -w1, -turn]), np.array([l1, w1, turn])
+    low, high = np.array([l0, -lateral, -turn]), np.array([l1, lateral, turn])
     guess = np.clip([goal[0] / n, 2 * goal[1] / n, goal[2] / n], low, high)
     fit = least_squares(lambda p: _end_error(robot, goal, gait_specs(n, lead, *p)), guess,
                         bounds=(low - 1e-12, high + 1e-12), xtol=1e-10, ftol=1e-12)

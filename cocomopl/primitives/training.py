@@ -29,8 +29,9 @@ def step_type(spec: StepSpec) -> str:
 
 
 # Weights of a footstep's width (m/m) and turn (m/rad) in the weight GPs' inputs, which
-# measure everything in metres of step length: each maps its range (FOOTSTEP_RANGE: 200 mm,
-# 50 degrees) onto the lengths' 550 mm, so that one kernel width spans the three alike.
+# measure everything in metres of step length: each maps its range (FOOTSTEP_RANGE: 200 mm
+# without the 15 mm turns add, 50 degrees) onto the lengths' 550 mm, so that one kernel width
+# spans the three alike.
 WIDTH_SCALE = 2.75
 TURN_SCALE = 0.63
 STRAIGHT_PARAMETERS = 2  # start and end length: all a model of straight steps has
