@@ -43,7 +43,7 @@ def test_a_reaimed_step_lands_where_the_plan_did_from_where_the_robot_stands(wal
     planned = sole_poses(walk.robot, specs)[step][side]
     outward = 1.0 if side == "left" else -1.0  # away from the swinging sole: its footstep widens, within the range
     measured = planned + np.array([-0.006, outward * 0.004, math.radians(0.5)])
-    new, miss = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
+    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
     assert miss < 1e-9
     poses, landed = sole_poses(walk.robot, new), landing_targets(walk.robot, new)
     # the step before is taken to have landed where the stance sole was measured ...
@@ -69,7 +69,7 @@ def test_a_start_step_is_not_reaimed_and_a_stops_landing_repeats_the_footstep_be
     assert specs[stop].kind == "stop"
     side = stance_of(specs, stop)
     measured = sole_poses(walk.robot, specs)[stop][side] + np.array([0.005, -0.005, 0.0])
-    new, miss = reaimed_specs(walk.robot, specs, targets, stop, measured, LIMITS)
+    new, miss, _ = reaimed_specs(walk.robot, specs, targets, stop, measured, LIMITS)
     assert miss > 0.004 and new[stop].kind == "stop"
     assert new[stop].start_footstep == new[stop - 1].end_footstep
 
@@ -83,7 +83,7 @@ def test_an_aim_beyond_the_learned_range_corrects_less(walk):
     towards_swing = -1.0 if side == "left" else 1.0
     planned = sole_poses(walk.robot, specs)[step][side]
     measured = planned + np.array([0.0, towards_swing * 0.03, 0.0])
-    new, miss = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
+    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
     assert miss > 0.01
     assert new[step].end_footstep.width >= LIMITS["width"][0] - 1e-9
 

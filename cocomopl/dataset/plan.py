@@ -36,7 +36,7 @@ DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
 # degrees, where the bundled set stops: beyond, the gaits step out (``planning.goal.
 # turn_step_out``) and the grid with 25 is a longer job than the 60 minutes it may take
 # (docs/method.md#omnidirectional-training-set).
-DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300,400/0,75,150/0,12"
+DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300,400/0,75,150/0,12,25"
 
 
 def gait_footsteps(robot, grids) -> tuple[tuple[Footstep, ...], tuple[tuple[Footstep, Footstep], ...]]:

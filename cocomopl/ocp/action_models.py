@@ -125,15 +125,30 @@ def swing_clearance_cost(robot: Robot, state, swing: str, nu: int, min_height: f
     return crocoddyl.CostModelResidual(state, activation, residual)
 
 
+def _sole_outline(robot: Robot) -> np.ndarray:
+    """The (4, 3) corners of a sole in its own frame, counter-clockwise seen from above."""
+    sole = robot.sole
+    return np.array([[sole.front, sole.half_width, 0.0], [-sole.back, sole.half_width, 0.0],
+                     [-sole.back, -sole.half_width, 0.0], [sole.front, -sole.half_width, 0.0]])
+
+
 def sole_corners(robot: Robot, placement: pin.SE3) -> np.ndarray:
     """The (4, 3) corners of a sole at ``placement``, world frame, in order round its edge."""
-    sole = robot.sole
-    local = np.array([[sole.front, sole.half_width, 0.0], [-sole.back, sole.half_width, 0.0],
-                      [-sole.back, -sole.half_width, 0.0], [sole.front, -sole.half_width, 0.0]])
-    return placement.translation + local @ placement.rotation.T
+    return placement.translation + _sole_outline(robot) @ placement.rotation.T
 
 
-def polygons_gap(a: np.ndarray, b: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, bool]:
+_FLIP = np.array([1.0, -1.0])  # (dx, dy) turned to (dy, -dx): outward of a counter-clockwise edge
+
+
+def _edge_normals(polygon: np.ndarray) -> np.ndarray:
+    """The outward unit normals (n, 2) on the ground of a counter-clockwise polygon's edges."""
+    ground = polygon[:, :2]
+    step = np.concatenate((ground[1:], ground[:1])) - ground
+    return step[:, ::-1] * (_FLIP / np.hypot(step[:, 0], step[:, 1])[:, None])
+
+
+def polygons_gap(a: np.ndarray, b: np.ndarray, b_normals: np.ndarray | None = None,
+                 ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, bool]:
     """How far apart two convex polygons are on the ground, by their separating axes.
 
     ``a`` and ``b`` are corners (n, 3) in counter-clockwise order seen from above; only x and
@@ -141,26 +156,32 @@ def polygons_gap(a: np.ndarray, b: np.ndarray) -> tuple[float, np.ndarray, np.nd
     the polygons are ``min(u . a) - max(u . b)`` apart; the gap is the largest of these: the
     distance between polygons apart beside each other (less where they are closest corner to
     corner), minus the depth of the overlap of overlapping ones, and continuous between.
+    ``b_normals`` are ``b``'s edge normals, when known.
 
     Returns the gap (m), that axis u (3,), the corner of ``a`` and of ``b`` that set it, and
     whether u is the normal of an edge of ``a`` (which turns with ``a``).
     """
-    def normals(poly):  # outward unit normals of a counter-clockwise polygon's edges
-        step = np.roll(poly, -1, axis=0) - poly
-        n = np.stack([step[:, 1], -step[:, 0], np.zeros(len(poly))], axis=1)
-        return n / np.linalg.norm(n, axis=1, keepdims=True)
-
-    axes = np.concatenate([normals(b), -normals(a)])
-    on_a, on_b = a[:, :2] @ axes[:, :2].T, b[:, :2] @ axes[:, :2].T  # (corners, axes)
+    b_normals = _edge_normals(b) if b_normals is None else b_normals
+    axes = np.concatenate((b_normals, -_edge_normals(a)))
+    on_a, on_b = a[:, :2] @ axes.T, b[:, :2] @ axes.T  # (corners, axes)
     separation = on_a.min(axis=0) - on_b.max(axis=0)
-    k = int(np.argmax(separation))
-    return float(separation[k]), axes[k], a[np.argmin(on_a[:, k])], b[np.argmax(on_b[:, k])], k >= len(b)
+    k = int(separation.argmax())
+    axis = np.array([axes[k, 0], axes[k, 1], 0.0])
+    return float(separation[k]), axis, a[on_a[:, k].argmin()], b[on_b[:, k].argmax()], k >= len(b)
 
 
 def soles_gap(robot: Robot, swing: pin.SE3, stance: pin.SE3) -> float:
     """The gap (m) on the ground between the soles' rectangles at ``swing`` and ``stance``
     (:func:`polygons_gap`)."""
     return polygons_gap(sole_corners(robot, swing), sole_corners(robot, stance))[0]
+
+
+class SoleGapData(crocoddyl.ResidualDataAbstract):
+    """A residual's data that also keeps what :meth:`SoleGapResidual.calc` found for its ``calcDiff``."""
+
+    def __init__(self, model, collector):
+        super().__init__(model, collector)
+        self.gap_parts: tuple = ()
 
 
 class SoleGapResidual(crocoddyl.ResidualModelAbstract):
@@ -174,29 +195,37 @@ class SoleGapResidual(crocoddyl.ResidualModelAbstract):
 
     def __init__(self, robot: Robot, state, swing: str, stance: pin.SE3, nu: int):
         super().__init__(state, 1, nu, True, False, False)
-        self._robot = robot
+        self._model = robot.model
         self._frame = robot.foot_frames[swing]
+        self._outline = _sole_outline(robot)
         self._stance = sole_corners(robot, stance)
+        self._stance_normals = _edge_normals(self._stance)
 
-    def _gap(self, data):
-        # as crocoddyl's own frame residuals do: the dynamics leave the frames' placements stale
-        placement = pin.updateFramePlacement(self._robot.model, data.shared.pinocchio, self._frame)
-        with np.errstate(invalid="ignore"):  # a diverged iterate's NaN gap: the solver rejects it, as it does its own
-            return (*polygons_gap(sole_corners(self._robot, placement), self._stance), placement)
+    def createData(self, collector):
+        return SoleGapData(self, collector)
 
     def calc(self, data, x, u=None):
-        data.r[0] = self._gap(data)[0]
+        # as crocoddyl's own frame residuals do: the dynamics leave the frames' placements stale
+        placement = pin.updateFramePlacement(self._model, data.shared.pinocchio, self._frame)
+        origin = placement.translation
+        corners = origin + self._outline @ placement.rotation.T
+        # a diverged iterate's NaN gap: the solver rejects it, as it does its own
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gap, axis, on_swing, on_stance, turns = polygons_gap(corners, self._stance, self._stance_normals)
+        data.gap_parts = (axis, on_swing, on_stance, turns, origin)
+        data.r[0] = gap
 
     def calcDiff(self, data, x, u=None):
-        _, axis, on_swing, on_stance, turns, placement = self._gap(data)
-        model = self._robot.model
-        jacobian = pin.getFrameJacobian(model, data.shared.pinocchio, self._frame, pin.LOCAL_WORLD_ALIGNED)
-        # the velocity of the swing sole's corner, not of the sole frame's origin
-        gradient = axis @ (jacobian[:3] - pin.skew(on_swing - placement.translation) @ jacobian[3:])
-        if turns:  # the axis is an edge normal of the swing sole and turns with it
-            apart = np.append((on_swing - on_stance)[:2], 0.0)
-            gradient += np.cross(axis, apart) @ jacobian[3:]
-        data.Rx[..., : model.nv] = gradient  # (1, ndx), which the bindings show as (ndx,)
+        # crocoddyl calls calcDiff after calc at the same x, as its own residuals assume
+        axis, on_swing, on_stance, turns, origin = data.gap_parts
+        jacobian = pin.getFrameJacobian(self._model, data.shared.pinocchio, self._frame, pin.LOCAL_WORLD_ALIGNED)
+        # the velocity of the swing sole's corner, not of the sole frame's origin: u . (v + w x c) = u . v + (c x u) . w
+        (ux, uy, _), (cx, cy, cz) = axis, on_swing - origin
+        gradient = axis @ jacobian[:3] + np.array([-cz * uy, cz * ux, cx * uy - cy * ux]) @ jacobian[3:]
+        if turns:  # the axis is an edge normal of the swing sole and turns with it: u x (corner - corner)
+            (dx, dy, _) = on_swing - on_stance
+            gradient += (ux * dy - uy * dx) * jacobian[5]
+        data.Rx[..., : self._model.nv] = gradient  # (1, ndx), which the bindings show as (ndx,)
 
 
 def sole_gap_cost(robot: Robot, state, swing: str, stance: pin.SE3, nu: int, min_gap: float):

@@ -27,6 +27,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from time import perf_counter
+from typing import NamedTuple
 
 import numpy as np
 
@@ -97,11 +98,17 @@ def _clear(robot: Robot, side: str, footstep: Footstep) -> bool:
     return True
 
 
-def stance_error(robot: Robot, specs: Sequence[StepSpec], step: int, stance: np.ndarray) -> np.ndarray:
-    """Where the measured stance sole of step ``step`` stands from the plan ``specs``: (x, y)
-    in m and yaw in rad."""
-    planned = sole_poses(robot, list(specs))[step][OTHER_SIDE[specs[step].swing_side]]
-    return np.array([*(stance[:2] - planned[:2]), wrap_angle(stance[2] - planned[2])])
+def _offset(pose: np.ndarray, planned: np.ndarray) -> np.ndarray:
+    """Where a sole's pose (x, y, yaw) stands from its planned one: x, y in m and yaw in rad."""
+    return np.array([*(pose[:2] - planned[:2]), wrap_angle(pose[2] - planned[2])])
+
+
+class Reaim(NamedTuple):
+    """A walk with one step re-aimed (:func:`reaimed_specs`)."""
+
+    specs: list[StepSpec]
+    miss_m: float  # how far the re-aimed step lands from the original plan's landing
+    stance_error: np.ndarray  # where the measured stance sole stood from the plan: x, y (m), yaw (rad)
 
 
 def reaimed_specs(
@@ -111,10 +118,9 @@ def reaimed_specs(
     step: int,
     stance: np.ndarray,
     limits: dict[str, tuple[float, float]],
-) -> tuple[list[StepSpec], float] | None:
+) -> Reaim | None:
     """The walk ``specs`` with step ``step`` re-aimed from the measured pose ``stance`` (x, y,
-    yaw) of its stance sole, and how far (m) its landing then lies from ``targets[step]``;
-    None where it cannot be re-aimed.
+    yaw) of its stance sole; None where it cannot be re-aimed.
 
     The step before is given the footstep that puts its sole at ``stance``; step ``step``
     the footstep from there to ``targets[step]`` (the original plan's landing), or to a
@@ -128,15 +134,15 @@ def reaimed_specs(
     side = OTHER_SIDE[spec.swing_side]
     if spec.kind == "start" or before is None or before.kind == "stop" or before.swing_side != side:
         return None
+    poses = sole_poses(robot, list(specs[: step + 1]))  # a step's soles depend only on the steps before it
     # where the step before really landed: not refused for the clearance it did not keep
-    origin = sole_poses(robot, list(specs))[step - 1][spec.swing_side]
-    landed = _within(relative_footstep(robot, origin, stance, side), limits)
-    error = stance_error(robot, specs, step, stance)
+    landed = _within(relative_footstep(robot, poses[step - 1][spec.swing_side], stance, side), limits)
+    error = _offset(stance, poses[step][side])
     out = list(specs)
     out[step - 1] = _with_footsteps(before, before.start_footstep, landed)
     if spec.kind == "stop":  # its landing repeats the footstep before it
         out[step] = _with_footsteps(spec, landed, Footstep(0.0))
-        return out, _miss(robot, out, targets, step)
+        return Reaim(out, _miss(robot, out, targets, step), error)
     for share in SHARES:
         aim = targets[step] + (1.0 - share) * error
         footstep = _within(relative_footstep(robot, stance, aim, spec.swing_side), limits)
@@ -148,12 +154,12 @@ def reaimed_specs(
     if step + 1 < len(out):
         after = out[step + 1]
         out[step + 1] = _with_footsteps(after, footstep, after.start_footstep if after.kind == "stop" else after.end_footstep)
-    return out, _miss(robot, out, targets, step)
+    return Reaim(out, _miss(robot, out, targets, step), error)
 
 
 def _miss(robot: Robot, specs: Sequence[StepSpec], targets: Sequence[np.ndarray], step: int) -> float:
     """How far (m) step ``step`` of ``specs`` lands from ``targets[step]``."""
-    return float(np.hypot(*(landing_targets(robot, specs)[step][:2] - targets[step][:2])))
+    return float(np.hypot(*(landing_targets(robot, specs[: step + 1])[step][:2] - targets[step][:2])))
 
 
 @dataclass
@@ -190,19 +196,18 @@ class Reaiming:
             return None
         self._tried.add(step)
         stance = soles[OTHER_SIDE[self.specs[step].swing_side]]
-        changed = reaimed_specs(self.robot, self.specs, self.targets, step, stance, self.footstep_range)
-        if changed is None:
+        aim = reaimed_specs(self.robot, self.specs, self.targets, step, stance, self.footstep_range)
+        if aim is None:
             return None
-        specs, miss = changed
         started = perf_counter()
         try:
-            motion = self.generate(specs, self.motion, step)
+            motion = self.generate(aim.specs, self.motion, step)
         except Error:  # the changed walk is refused (its checks or its placement): keep the plan
             return None
-        error = stance_error(self.robot, self.specs, step, stance)
-        self.reaimed.append(Reaimed(time, step, (float(error[0]), float(error[1])), math.degrees(error[2]), miss,
+        error = aim.stance_error
+        self.reaimed.append(Reaimed(time, step, (float(error[0]), float(error[1])), math.degrees(error[2]), aim.miss_m,
                                     perf_counter() - started))
-        self.specs, self.motion = specs, motion
+        self.specs, self.motion = aim.specs, motion
         return motion
 
     def _settled_step(self, time: float) -> int | None:
@@ -217,4 +222,4 @@ class Reaiming:
         return None
 
 
-__all__ = ["SETTLED", "Reaimed", "Reaiming", "landing_targets", "reaimed_specs", "stance_error"]
+__all__ = ["SETTLED", "Reaim", "Reaimed", "Reaiming", "landing_targets", "reaimed_specs"]
