@@ -200,3 +200,17 @@ def test_the_bounds_themselves_are_accepted(tmp_path):
     with pytest.raises(Error, match="per core"):  # the Python API too
         generate(tmp_path / "d.h5", (SMALL_LENGTH,), settings=SMALL, workers=max_workers() + 1, progress=False)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_solver_process_that_dies_is_an_error_not_a_traceback():
+    """A worker killed in compiled code (a C++ exception's terminate, the out-of-memory killer)."""
+    import os
+
+    from cocomopl.dataset.generate import Executor
+
+    executor = Executor(1, None)
+    try:
+        with pytest.raises(Error, match="a solver process died .*run the same command again to resume"):
+            executor.result(executor.submit(os._exit, 1))
+    finally:
+        executor.close()

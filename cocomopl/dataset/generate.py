@@ -18,6 +18,7 @@ import os
 import shutil
 import sys
 import time
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -275,7 +276,12 @@ class Executor:
 
     @staticmethod
     def result(future):
-        return future.result()
+        """The job's result; a local worker that died is an :class:`Error`, not a traceback."""
+        try:
+            return future.result()
+        except BrokenProcessPool:
+            raise Error("a solver process died (a crash in compiled code, or out of memory); the OCPs solved "
+                        "so far are kept: run the same command again to resume") from None
 
     def close(self):
         if self.scheduler:
