@@ -460,7 +460,7 @@ def cmd_walk(args) -> int:
              *([f"ended {100 * payload['final_position_error_m']:.1f} cm and {payload['final_yaw_error_deg']:.1f} deg from the goal"]
                if "goal" in payload else []),
              *([_recovery_line(payload["recoveries"])] if args.recover else []),
-             *([_reaim_line(payload["reaimed"])] if args.reaim else []),
+             *([_reaim_line(payload["reaimed"])] if payload["reaim"] else []),
              f"report in {out}/ ({payload['wall_time_s']:.0f} s): " + ", ".join(Path(f).name for f in payload["files"])]
     _emit(args, payload, "\n".join(lines))
     return 1 if payload["fell"] else 0
@@ -781,9 +781,10 @@ def _simulation_parsers(sub) -> None:
     walk.add_argument("--recover", action="store_true",
                       help="recovery by stepping: a push the stabilizer cannot absorb moves the swing foot's landing, "
                       "and the walk is generated again from there (docs/method.md#recovery-by-stepping)")
-    walk.add_argument("--reaim", action="store_true",
+    walk.add_argument("--reaim", action=argparse.BooleanOptionalAction,
                       help="footstep re-aiming: each step is aimed from where the stance sole was measured at the "
-                      "plan's landing, and the walk is generated again from there (docs/method.md#footstep-re-aiming)")
+                      "plan's landing, and the walk is generated again from there (default: on for --to walks "
+                      "without --refine or --recover; docs/method.md#footstep-re-aiming)")
     _refine_options(walk)
     _simulation_options(walk)
     _json_option(walk)

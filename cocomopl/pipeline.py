@@ -336,7 +336,7 @@ def walk_report(
     landings: Sequence[Landing] | None = None,
     goal: Goal | Sequence[Goal] | None = None,
     recover: bool = False,
-    reaim: bool = False,
+    reaim: bool | None = None,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -356,7 +356,9 @@ def walk_report(
     With ``recover`` a push the stabilizer cannot absorb moves a landing and the walk is
     generated again (:func:`recovery_for`; the report's ``recoveries``).  With ``reaim`` each
     step is aimed from the measured stance sole at its planned landing (:func:`reaiming_for`;
-    the report's ``reaimed``).
+    the report's ``reaimed``); left ``None`` it is on for a walk to a ``goal`` that neither
+    refines nor recovers (a robot that walks to a goal aims its steps from where it stands)
+    and off otherwise.
     Returns the metrics with the timings, the files written and their provenance.
     """
     from cocomopl.analysis.report_plots import plot_comparison
@@ -368,6 +370,8 @@ def walk_report(
     if recover and (refine_steps or not settings.stabilizer):
         raise Error("recovery by stepping needs the stabilizer, and replans with the primitives: "
                     "it cannot be combined with --no-stabilizer or --refine")
+    if reaim is None:
+        reaim = goal is not None and not refine_steps and not recover
     if reaim and (refine_steps or recover):
         raise Error("footstep re-aiming replans with the primitives: it cannot be combined with --refine or --recover")
     omni = lengths is None
@@ -400,6 +404,7 @@ def walk_report(
             **simulation_record(rollout.measured),
             "pushes": rollout.measured.meta["pushes"],
             **({"recoveries": rollout.measured.meta["recoveries"]} if recover else {}),
+            "reaim": reaim,
             **({"reaimed": rollout.measured.meta["reaimed"]} if reaim else {}),
             **metrics,
             "generation_s": walk.generation_s,

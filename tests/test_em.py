@@ -7,9 +7,10 @@ import pytest
 
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.primitives import em, slot_algebra
-from cocomopl.primitives.bound import free_energy, mp_prior, weight_prior
+from cocomopl.primitives.bound import _weight_diagonals, free_energy, mp_prior, weight_prior
 from cocomopl.primitives.estimator import _SlotLayout, pca_signal_weights
 from cocomopl.primitives.optimise import LOG_BOUNDS, initial_parameters, maximise_bound
+from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels
 from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample
 
 S, KERNEL = 3, "matern52"
@@ -31,7 +32,7 @@ def _start(problem):
     X, mask, d2, tau, weights = problem
     params, data = initial_parameters(X, mask, d2, tau, S, weights)
     hyper = {k: np.asarray(params[k], dtype=float) for k in em.HYPERPARAMETERS}
-    A, B = np.asarray(mp_prior(hyper, data, KERNEL)), np.asarray(weight_prior(hyper, data))
+    A, B = em.priors(hyper, data, KERNEL, ShapeCache(data))
     q = {**em._posterior_start(params, A, B, data), "chi": params["chi"], "sigma2": np.exp(2 * params["log_sigma"])}
     return q, hyper, A, B, data, params
 
@@ -70,11 +71,12 @@ def _held_kl(q: dict, hyper: dict, data) -> float:
     """The hyperparameter-dependent part of KL(Q || prior), Q held, from the prior matrices."""
     A, B = np.asarray(mp_prior(hyper, data, KERNEL)), np.asarray(weight_prior(hyper, data))
     mask = data.mask
-    both = mask[:, :, None] * mask[:, None, :]
-    eye = np.eye(mask.shape[1]) * (1.0 - mask[:, :, None])  # empty slots: identities, constant
+    Om = np.eye(mask.shape[1]) * (1.0 - mask[:, :, None])  # empty slots: identities, constant
+    Om = np.broadcast_to(Om, B.shape).copy()
+    for (n, idx), block in zip(data.groups, q["Om"].blocks()):
+        Om[..., idx, :n, :n] = block
     out = 0.0
-    for K, cov, deviation in ((A, q["Sig"], q["m"] - data.mu),
-                              (B, q["Om"] * both + eye, (q["w"] - q["chi"][..., None]) * mask)):
+    for K, cov, deviation in ((A, q["Sig"], q["m"] - data.mu), (B, Om, (q["w"] - q["chi"][..., None]) * mask)):
         inverse = np.linalg.inv(K)
         out += 0.5 * float(np.sum(np.einsum("...nm,...nm->...", inverse, cov)
                                   + np.einsum("...n,...nm,...m->...", deviation, inverse, deviation)
@@ -117,3 +119,46 @@ def test_slot_algebra_at_each_types_size_equals_the_dense_algebra(xp):
     R5 = rng.normal(size=(5, 2, len(sizes), N, 2))
     np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(np.asarray(L)), xp.asarray(R5), groups, xp)),
                                np.linalg.solve(np.linalg.cholesky(M), R5), atol=1e-13)
+
+
+def test_the_weight_priors_factorised_per_shape_give_the_dense_algebra(problem):
+    """EM's weight priors share their factors among the GPs of one kernel shape
+    (shared_kernels); every matrix function EM takes of them equals the dense one's."""
+    X, mask, d2, tau, weights = problem
+    _, data = initial_parameters(X, mask, d2, tau, S, weights)
+    rng = np.random.default_rng(0)
+    I = X.shape[2]
+    pick = rng.random((I, S)) < 0.5  # two shapes, shared by about half of the GPs each
+    alpha, gamma, eta = rng.uniform(0.1, 2.0, (I, S)), np.where(pick, 30.0, 300.0), np.where(pick, 1e-3, 1e-1)
+    kernels = WeightKernels(ShapeCache(data), alpha, gamma, eta)
+    assert len(kernels.cache) == 2  # factorised once per shape, not per GP
+    B = np.asarray(weight_prior({"log_alpha_w": np.log(alpha), "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)},
+                                data, np))
+    c = rng.uniform(1.0, 100.0, (I, S))
+    x, y = (rng.normal(size=B.shape[:-1]) * mask for _ in range(2))
+    chi = rng.normal(size=(I, S, mask.shape[0], 1)) * mask
+    shifted = np.eye(B.shape[-1]) + c[..., None, None, None] * B
+
+    def dense(M, v):
+        return (M @ v[..., None])[..., 0]
+
+    def dense_solve(M, v):
+        return np.linalg.solve(M, v[..., None])[..., 0]
+
+    np.testing.assert_allclose(kernels.posterior_mean(c, chi, y), dense_solve(shifted, chi + dense(B, y)),
+                               rtol=1e-8, atol=1e-10)
+    Om = B @ np.linalg.inv(shifted)
+    for (n, idx), block in zip(data.groups, kernels.posterior_covariance(c).blocks()):
+        np.testing.assert_allclose(block, Om[..., idx, :n, :n], rtol=1e-8, atol=1e-12)
+    L = np.linalg.cholesky(B)
+    np.testing.assert_allclose(kernels.whiten(x), dense_solve(L, x), rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(kernels.unwhiten(x), dense(L, x), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(kernels.solve_whitened(kernels.whiten(x)), dense_solve(B, x),
+                               rtol=1e-6, atol=1e-8)
+    ones = dense_solve(B, np.broadcast_to(mask, x.shape))
+    np.testing.assert_allclose(kernels.gls_means(x, mask), (ones * x).sum(-1) / (ones * mask).sum(-1), rtol=1e-7)
+    # the bound's terms: the same diagonals, and log-determinant terms with the same sum per type
+    mine, theirs = kernels.bound_terms(c, x), _weight_diagonals(B, c, x, data.groups, np)
+    for a, b in zip(mine[:3], theirs[:3]):
+        np.testing.assert_allclose(a * mask, b * mask, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose((mine[3] * mask).sum(-1), (theirs[3] * mask).sum(-1), rtol=1e-10)

@@ -6,6 +6,7 @@ the decision logic with a generator that only records the steps it is given, and
 rollout once end to end without the stabilizer.
 """
 
+import json
 import math
 
 import numpy as np
@@ -123,6 +124,16 @@ def test_reaiming_without_the_stabilizer_replans_every_step_it_can_in_simulation
     assert all(isinstance(s, StepSpec) for s in reaiming.specs)
     with pytest.raises(Error, match="use one of them"):
         simulate(sim, walk.motion, recovery=recovery_for(walk), reaiming=reaiming_for(walk))
+
+
+@pytest.mark.parametrize("option, reaimed", [((), True), (("--no-reaim",), False)])
+def test_a_walk_to_a_goal_is_reaimed_unless_told_not_to(tmp_path, option, reaimed):
+    result = run_cli("walk", "--to", "0.2,0,0", "--no-video", "--json", "--out", str(tmp_path / "walk"), *option)
+    assert result.returncode == 0, result.stderr
+    payload = json.loads(result.stdout)
+    assert payload["reaim"] is reaimed and ("reaimed" in payload) is reaimed
+    if reaimed:  # every step after the start is aimed from where its stance sole stood
+        assert [c["step"] for c in payload["reaimed"]] == [k for k, s in enumerate(payload["steps"]) if not s.startswith("start")]
 
 
 @pytest.mark.parametrize("extra", [["--reaim", "--recover"], ["--reaim", "--refine"]])

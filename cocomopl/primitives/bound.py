@@ -113,23 +113,26 @@ def posterior(params: dict, data: BoundData, kernel: str, xp=jnp, priors: tuple 
     )
 
     mask = xp.asarray(data.mask)
-    v = params["v"]
-    whitened, omega, PB_inv_diagonal, L_PB_diagonal = _weight_diagonals(B, xp.exp(params["log_c"]), v, data.groups, xp)
+    v, c = params["v"], xp.exp(params["log_c"])
+    # EM's priors come factorised per kernel shape (shared_kernels.WeightKernels), the rest dense
+    weight_terms = B.bound_terms(c, v) if hasattr(B, "bound_terms") else _weight_diagonals(B, c, v, data.groups, xp)
+    whitened, omega, PB_inv_diagonal, log_det_parts = weight_terms
     w = params["chi"][..., None] + whitened
-    kl_w = 0.5 * xp.sum(mask * (PB_inv_diagonal + v**2 - 1.0 + 2.0 * xp.log(L_PB_diagonal)))
+    kl_w = 0.5 * xp.sum(mask * (PB_inv_diagonal + v**2 - 1.0 + log_det_parts))
     return {"m": m, "tr_sigma": tr_sigma, "w": w, "omega": omega, "kl_mp": kl_mp, "kl_w": kl_w}
 
 
 def _weight_diagonals(B, c, v, groups, xp=jnp):
     """What the bound takes of the weight posteriors, per slot (I, S, G, N), each type's
     block at its own size (:mod:`~cocomopl.primitives.slot_algebra`): ``chol(B) v``, the
-    diagonals of ``Omega = B (I + cB)^-1`` and of ``(I + cB)^-1``, and that of ``chol(I + cB)``.
+    diagonals of ``Omega = B (I + cB)^-1`` and of ``(I + cB)^-1``, and twice the log-diagonal
+    of ``chol(I + cB)``, whose sum over a type's steps is ``log |I + cB|``.
 
     An empty slot has ``B = 1`` there and no coupling, hence the values the loop starts from."""
     shift = 1.0 + c[:, :, None, None]
     # fresh arrays each: NumPy's blocks are written in place
     whitened, omega = xp.array(v), xp.ones(v.shape) / shift
-    P_inv_diagonal, L_P_diagonal = xp.ones(v.shape) / shift, xp.ones(v.shape) * xp.sqrt(shift)
+    P_inv_diagonal, log_det_parts = xp.ones(v.shape) / shift, xp.ones(v.shape) * xp.log(shift)
     for n, idx in groups:
         B_g = B[..., idx, :n, :n]
         at = (..., idx, slice(None, n))
@@ -139,8 +142,8 @@ def _weight_diagonals(B, c, v, groups, xp=jnp):
         P_inv = xp.swapaxes(L_P_inv, -1, -2) @ L_P_inv
         omega = slot_algebra.put(omega, at, xp.einsum("isgnj,isgjn->isgn", B_g, P_inv), xp)
         P_inv_diagonal = slot_algebra.put(P_inv_diagonal, at, xp.diagonal(P_inv, axis1=-2, axis2=-1), xp)
-        L_P_diagonal = slot_algebra.put(L_P_diagonal, at, xp.diagonal(L_P, axis1=-2, axis2=-1), xp)
-    return whitened, omega, P_inv_diagonal, L_P_diagonal
+        log_det_parts = slot_algebra.put(log_det_parts, at, 2.0 * xp.log(xp.diagonal(L_P, axis1=-2, axis2=-1)), xp)
+    return whitened, omega, P_inv_diagonal, log_det_parts
 
 
 def free_energy(params: dict, data: BoundData, kernel: str, xp=jnp, priors: tuple | None = None):

@@ -24,12 +24,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-from cocomopl.primitives import slot_algebra
-from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, weight_prior
+from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior
 from cocomopl.primitives.kernels import time_kernel
 from cocomopl.primitives.optimise import (
     ETA_GRID,
@@ -37,6 +34,7 @@ from cocomopl.primitives.optimise import (
     _prediction_arrays,
     initial_parameters,
 )
+from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels
 
 TOLERANCE = 1.0  # nats: a round that raises the bound by less ends the fit
 HYPERPARAMETERS = ("log_alpha_t", "log_ell_t", "log_alpha_w", "log_gamma_w", "log_eta_w")
@@ -44,31 +42,37 @@ GRID_POINTS = 61  # log-spaced candidate widths per time kernel in an M-step, 12
 WEIGHT_GRID_POINTS = 31  # and per weight kernel, 36 % apart, each with every nugget of ETA_GRID
 
 
-def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray, groups=None) -> np.ndarray:
-    """``(I + scale K)^-1 rhs`` for kernels ``K`` (..., n, n), scales (...) and ``rhs`` (..., n, k);
-    with ``groups``, ``K`` are weight kernels in the slot layout (:mod:`~cocomopl.primitives.slot_algebra`).
+def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``(I + scale K)^-1 rhs`` for time kernels ``K`` (..., T, T), scales (...) and ``rhs`` (..., T, k).
 
     Written without ``K^-1``: the kernels' nuggets can be as small as 1e-6, so their inverses
     are ill-conditioned where ``I + scale K`` is not.
     """
-    shifted = np.eye(K.shape[-1]) + scale[..., None, None] * K
-    return np.linalg.solve(shifted, rhs) if groups is None else slot_algebra.solve(shifted, rhs, groups)
+    return np.linalg.solve(np.eye(K.shape[-1]) + scale[..., None, None] * K, rhs)
 
 
-def e_step(q: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
+def priors(hyper: dict, data: BoundData, kernel: str, cache: ShapeCache) -> tuple[np.ndarray, WeightKernels]:
+    """The prior covariances of the hyperparameters ``hyper``: the MPs' ``A`` (S, T, T) and
+    the weight GPs', their shapes factorised once in ``cache``."""
+    A = mp_prior(hyper, data, kernel, np)
+    return A, WeightKernels(cache, *(np.exp(hyper[k]) for k in ("log_alpha_w", "log_gamma_w", "log_eta_w")))
+
+
+def e_step(q: dict, A: np.ndarray, B: WeightKernels, data: BoundData) -> dict:
     """One sweep over the primitives: ``Q(MP_s)``, then ``Q(W_is)`` of every signal, each set
     to its optimum given the rest.  ``q`` also gets the precisions the posteriors were
     computed with, ``d`` (S,) and ``c`` (I, S): ``Sigma_s = (A_s^-1 + d_s I)^-1`` and
     ``Omega_is = (B_is^-1 + c_is I)^-1``."""
     mask, mu = data.mask, data.mu
-    m, Sig, w, Om = (q[k].copy() for k in ("m", "Sig", "w", "Om"))
+    m, Sig, w = (q[k].copy() for k in ("m", "Sig", "w"))
+    held = q["Om"].diagonal()  # of the weight posteriors as they are, under the priors they were computed with
     inv_s2 = 1.0 / q["sigma2"]
     d, c = np.empty(len(m)), np.empty(w.shape[:2])
     steps = np.nonzero(mask)  # the residuals are taken over the steps alone, not the empty slots
     rest = data.X[steps] - np.einsum("isk,st->kit", w[:, :, *steps], m)  # (K, I, T)
     for s in range(len(m)):
         rest += np.einsum("ik,t->kit", w[:, s][:, *steps], m[s])  # the data less every other primitive's share
-        second = w[:, s][:, *steps] ** 2 + np.diagonal(Om[:, s], axis1=-2, axis2=-1)[:, *steps]  # E[W_is^2], (I, K)
+        second = w[:, s][:, *steps] ** 2 + held[:, s][:, *steps]  # E[W_is^2], (I, K)
         d[s] = inv_s2 @ second.sum(axis=1)
         r = np.einsum("ik,kit->t", w[:, s][:, *steps] * inv_s2[:, None], rest)
         Sig[s] = _shifted_solve(A[s], d[s], A[s])
@@ -76,17 +80,13 @@ def e_step(q: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
         c[:, s] = (m[s] @ m[s] + np.trace(Sig[s])) * inv_s2
         y = np.zeros(w.shape[:1] + w.shape[2:])  # (I, G, N)
         y[:, *steps] = (rest @ m[s]).T * inv_s2[:, None]
-        Bs = B[:, s]  # (I, G, N, N)
-        shift = np.broadcast_to(c[:, s, None], Bs.shape[:2])
-        Om[:, s] = _shifted_solve(Bs, shift, Bs, data.groups)
-        prior_mean = np.broadcast_to(q["chi"][:, s, :, None], y.shape)
-        rhs = (prior_mean + np.einsum("ignk,igk->ign", Bs, y))[..., None]
-        w[:, s] = _shifted_solve(Bs, shift, rhs, data.groups)[..., 0]
+        prior_mean = q["chi"][:, s, :, None] * mask
+        w[:, s] = B.primitive(s).posterior_mean(c[:, s, None], prior_mean[:, None], y[:, None])[:, 0]
         rest -= np.einsum("ik,t->kit", w[:, s][:, *steps], m[s])
-    return {**q, "m": m, "Sig": Sig, "w": w, "Om": Om, "d": d, "c": c}
+    return {**q, "m": m, "Sig": Sig, "w": w, "Om": B.posterior_covariance(c), "d": d, "c": c}
 
 
-def means_and_noise(q: dict, B: np.ndarray, data: BoundData) -> dict:
+def means_and_noise(q: dict, B: WeightKernels, data: BoundData) -> dict:
     """``chi`` and ``sigma^2`` at their optima given the rest.
 
     ``chi_isg`` is the generalised least-squares mean of the weights under the type's kernel,
@@ -94,15 +94,11 @@ def means_and_noise(q: dict, B: np.ndarray, data: BoundData) -> dict:
     datum of signal i, ``E ||x - sum_s W_s MP_s||^2 / (K T)``.
     """
     mask = data.mask
-    L = slot_algebra.cholesky(B, data.groups)
-    ones = np.broadcast_to(mask, B.shape[:-1])
-    a = slot_algebra.solve(L, ones[..., None], data.groups)[..., 0]
-    b = slot_algebra.solve(L, (q["w"] * mask)[..., None], data.groups)[..., 0]
-    chi = (a * b).sum(-1) / (a * a).sum(-1)
+    chi = B.gls_means(q["w"], mask)
     m, w = q["m"], q["w"]
     m2 = (m**2).sum(axis=1) + np.trace(q["Sig"], axis1=1, axis2=2)  # E||MP_s||^2
     residual = data.X - np.einsum("isgn,st->gnit", w, m)
-    omega = np.diagonal(q["Om"], axis1=-2, axis2=-1)
+    omega = q["Om"].diagonal()
     spread = np.einsum("isgn,s->gni", w**2 + omega, m2) - np.einsum("isgn,s->gni", w**2, (m**2).sum(axis=1))
     sq = (residual**2).sum(axis=-1) + spread  # (G, N, I)
     sigma2 = np.einsum("gni,gn->i", sq, mask) / (mask.sum() * data.X.shape[-1])
@@ -175,6 +171,15 @@ def _weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tupl
     return _on_steps(inverses), log_det
 
 
+def _current_weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_weight_kernels` of the kernels' present shapes (I, S), each distinct shape
+    factorised once: most GPs share theirs (:mod:`~cocomopl.primitives.shared_kernels`)."""
+    shapes, shape_of = np.unique(np.stack([gamma.ravel(), eta.ravel()]), axis=1, return_inverse=True)
+    inverse, log_det = _weight_kernels(data, *shapes)
+    shape_of = shape_of.reshape(gamma.shape)
+    return inverse[shape_of], log_det[shape_of]
+
+
 def kernel_grids(data: BoundData, kernel: str) -> dict:
     """The M-step's candidate kernels, the same in every round: the log-spaced widths (and
     nuggets) of the time and weight kernels with their inverses (flattened; the weight
@@ -201,24 +206,23 @@ def m_step(q: dict, hyper: dict, data: BoundData, kernel: str, grids: dict | Non
     )
     # weight kernels, per (signal, primitive), over all step types at once
     deviation = q["w"] - q["chi"][..., None]
-    moment = _on_steps([q["Om"][..., idx, :n, :n] + deviation[..., idx, :n, None] * deviation[..., idx, None, :n]
-                        for n, idx in data.groups])
+    moment = _on_steps([block + deviation[..., idx, :n, None] * deviation[..., idx, None, :n]
+                        for (n, idx), block in zip(data.groups, q["Om"].blocks())])
     gamma_now, eta_now = np.exp(hyper["log_gamma_w"]), np.exp(hyper["log_eta_w"])
     (gamma, eta), log_alpha_w = _best_kernels(
-        grids["weight"], ((gamma_now, eta_now), *_weight_kernels(data, gamma_now, eta_now)), moment,
+        grids["weight"], ((gamma_now, eta_now), *_current_weight_kernels(data, gamma_now, eta_now)), moment,
         data.mask.sum(), LOG_BOUNDS["log_alpha_w"],
     )
     return {"log_alpha_t": log_alpha_t, "log_ell_t": np.log(ell), "log_alpha_w": log_alpha_w,
             "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)}
 
 
-def as_parameters(q: dict, hyper: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
+def as_parameters(q: dict, hyper: dict, A: np.ndarray, B: WeightKernels, data: BoundData) -> dict:
     """The posterior after an E-step in :func:`~cocomopl.primitives.bound.free_energy`'s
     parametrisation: whitened means and the precisions ``d``, ``c``."""
     mask = data.mask
     u = np.linalg.solve(np.linalg.cholesky(A), (q["m"] - data.mu)[..., None])[..., 0]
-    L_B = slot_algebra.cholesky(B, data.groups)
-    v = slot_algebra.solve(L_B, ((q["w"] - q["chi"][..., None]) * mask)[..., None], data.groups)[..., 0] * mask
+    v = B.whiten((q["w"] - q["chi"][..., None]) * mask) * mask
     return {**hyper, "u": u, "v": v, "chi": q["chi"], "log_d": np.log(q["d"]), "log_c": np.log(q["c"]),
             "log_sigma": 0.5 * np.log(q["sigma2"])}
 
@@ -243,18 +247,15 @@ def maximise_bound_em(
     """
     params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
     hyper = {k: np.asarray(params[k], dtype=float) for k in HYPERPARAMETERS}
-    prior_of = jax.jit(lambda h: (mp_prior(h, data, kernel), weight_prior(h, data)))
-
-    def priors(hyper: dict) -> tuple[np.ndarray, np.ndarray]:
-        return tuple(np.asarray(x) for x in prior_of({k: jnp.asarray(hyper[k]) for k in HYPERPARAMETERS}))
-
-    q = {**_posterior_start(params, *priors(hyper), data), "chi": params["chi"], "sigma2": np.exp(2.0 * params["log_sigma"])}
+    cache = ShapeCache(data)
+    q = {**_posterior_start(params, *priors(hyper, data, kernel, cache), data), "chi": params["chi"],
+         "sigma2": np.exp(2.0 * params["log_sigma"])}
     grids = kernel_grids(data, kernel)
     bounds = []
     for _ in range(max(max_rounds, 1)):
         if bounds:
             hyper = m_step(q, hyper, data, kernel, grids)
-        A, B = priors(hyper)
+        A, B = priors(hyper, data, kernel, cache)
         q = means_and_noise(e_step(q, A, B, data), B, data)
         params = as_parameters(q, hyper, A, B, data)
         bounds.append(float(free_energy(params, data, kernel, np, (A, B))))
@@ -264,7 +265,7 @@ def maximise_bound_em(
             break
     reconstruction = np.einsum("isgn,st->gnit", q["w"], q["m"])
     return {
-        "arrays": _prediction_arrays(params, data, kernel),
+        "arrays": _prediction_arrays(params, data, kernel, (A, B)),
         "bound": bounds[-1],
         "bounds": bounds,
         "iterations": len(bounds),
@@ -272,13 +273,12 @@ def maximise_bound_em(
     }
 
 
-def _posterior_start(params: dict, A: np.ndarray, B: np.ndarray, data: BoundData) -> dict:
+def _posterior_start(params: dict, A: np.ndarray, B: WeightKernels, data: BoundData) -> dict:
     """The PCA start as explicit posteriors: means and covariances, under the priors ``A`` and ``B``."""
     d = np.exp(params["log_d"])
-    c = np.exp(params["log_c"])
     return {
         "m": data.mu + np.einsum("stu,su->st", np.linalg.cholesky(A), params["u"]),
         "Sig": _shifted_solve(A, d, A),
-        "w": params["chi"][..., None] + np.einsum("isgnj,isgj->isgn", slot_algebra.cholesky(B, data.groups), params["v"]),
-        "Om": _shifted_solve(B, np.broadcast_to(c[:, :, None], B.shape[:3]), B, data.groups),
+        "w": params["chi"][..., None] + B.unwhiten(params["v"]),
+        "Om": B.posterior_covariance(np.exp(params["log_c"])),
     }

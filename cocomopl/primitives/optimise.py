@@ -18,6 +18,7 @@ from scipy.optimize import minimize
 
 from cocomopl.primitives import slot_algebra
 from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior, posterior, weight_prior
+from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels
 
 # (lower, upper) for the log-parameters; the rest are unbounded.  They keep the kernels
 # numerically sane: time length scales between a grid step and 10 steps, weight-kernel
@@ -68,8 +69,8 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
         "log_sigma": np.log(sigma),
     }
     data = bound_data(X_slots, mask, d2, tau, mu)
-    L_B = slot_algebra.cholesky(np.asarray(weight_prior(params, data)), data.groups)
-    params["v"] = slot_algebra.solve(L_B, ((w - chi[..., None]) * mask)[..., None], data.groups)[..., 0] * mask
+    prior = WeightKernels(ShapeCache(data), alpha_w, gamma_w, eta_w)
+    params["v"] = prior.whiten((w - chi[..., None]) * mask) * mask
     return params, data
 
 
@@ -167,14 +168,18 @@ def _bounds(params: dict, tau: np.ndarray) -> list:
     return out
 
 
-def _prediction_arrays(params: dict, data: BoundData, kernel: str) -> dict:
-    """What prediction needs: MP posterior, weight-GP hyperparameters and solves, noise."""
-    A, B = mp_prior(params, data, kernel, np), weight_prior(params, data, np)
+def _prediction_arrays(params: dict, data: BoundData, kernel: str, priors: tuple | None = None) -> dict:
+    """What prediction needs: MP posterior, weight-GP hyperparameters and solves, noise;
+    ``priors`` as for :func:`~cocomopl.primitives.bound.posterior`."""
+    A, B = priors or (mp_prior(params, data, kernel, np), weight_prior(params, data, np))
     q = posterior(params, data, kernel, np, (A, B))
     d = np.exp(params["log_d"])[:, None, None]
     m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
-    L_B = slot_algebra.cholesky(B, data.groups)
-    beta = slot_algebra.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None], data.groups)[..., 0] * data.mask
+    if hasattr(B, "solve_whitened"):  # EM's priors, factorised per kernel shape
+        beta = B.solve_whitened(params["v"]) * data.mask
+    else:
+        L_B = slot_algebra.cholesky(B, data.groups)
+        beta = slot_algebra.solve(np.swapaxes(L_B, -1, -2), params["v"][..., None], data.groups)[..., 0] * data.mask
     return {
         "m": q["m"],
         "m_var": np.diagonal(m_cov, axis1=1, axis2=2),
