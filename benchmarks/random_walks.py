@@ -12,12 +12,13 @@ at least 95 % walk without falling.
 
 With ``--goals``, each walk goes to a random goal pose instead (within 1.5 m ahead, 0.6 m
 behind or aside and 90 degrees, :func:`random_goal`): its footsteps are planned within the
-bundled omnidirectional model's range (``cocomopl walk --to``), and it is also measured
-against the goal and walked by the Kajita baseline on the same footsteps and timing.
+bundled omnidirectional model's range (``cocomopl walk --to``), played as planned
+(``cocomopl walk --to ... --no-reaim``), and it is also measured against the goal and walked
+by the Kajita baseline on the same footsteps and timing.
 With ``--feedforward``, each walk is also simulated without the stabilizer but with the
-servos' torque feedforward from the plan (``cocomopl walk --no-stabilizer --feedforward``).
+servos' torque feedforward from the plan (``cocomopl walk --no-stabilizer --feedforward``, ``--no-reaim`` for a goal).
 With ``--reaim``, each walk is also simulated with footstep re-aiming, with and without the
-stabilizer (``cocomopl walk --reaim [--no-stabilizer]``).
+stabilizer (``cocomopl walk --to ... [--no-stabilizer]``, which re-aims by default).
 
     python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals] [--feedforward]
         [--reaim] [--workers 2] [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15] [--model MODEL] [--json]
