@@ -4,7 +4,9 @@ Two barely fitted candidates (2 and 3 primitives, 5 L-BFGS iterations) on the si
 steps of 150-250 mm of the bundled dataset: the tests check the selection, not the models.
 """
 
+import dataclasses
 import inspect
+import os
 
 import pytest
 
@@ -14,7 +16,7 @@ from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, selection
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.model_file import model_metadata
 from cocomopl.primitives.selection import EXPLAINED_ENOUGH, choose, select_model, settled
-from cocomopl.primitives.training import load_training_steps
+from cocomopl.primitives.training import TrainingSteps, load_training_steps
 
 
 @pytest.fixture(scope="module")
@@ -94,3 +96,17 @@ def test_the_defaults_reproduce_the_bundled_model():
     assert default == MovementPrimitives().max_iterations == DEFAULT_MAX_ITERATIONS
     bundled = model_metadata(BUNDLED_MODEL)
     assert (bundled["max_iterations"], bundled["n_grid"]) == (DEFAULT_MAX_ITERATIONS, MovementPrimitives().n_grid)
+
+
+class _DiesInWorker(TrainingSteps):
+    """Training steps whose copy in a worker process ends that process, as a crash in
+    compiled code or the out-of-memory killer would."""
+
+    def __reduce__(self):
+        return os._exit, (1,)
+
+
+def test_a_training_process_that_dies_is_an_error_not_a_hang(cyclic):
+    steps = _DiesInWorker(*(getattr(cyclic, f.name) for f in dataclasses.fields(cyclic)))
+    with pytest.raises(Error, match="a training process died .*run the same command again"):
+        select_model(steps, n_primitives=(2,), kernels=("rbf",), max_iterations=2, workers=1)

@@ -20,9 +20,12 @@ import itertools
 import multiprocessing
 import threading
 from collections.abc import Iterable
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 from tqdm import tqdm
 
+from cocomopl.errors import Error
 from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.training import TrainingSteps
@@ -68,7 +71,8 @@ def select_model(
     steps : the training steps
     n_primitives, kernels : the candidates are all their combinations
     max_iterations : the most EM rounds of each fit
-    workers : processes to fit in.  They are spawned, not forked: a forked JAX runtime can hang
+    workers : processes to fit in.  They are spawned, not forked: a forked JAX runtime can hang.
+        Candidates still fitting when the choice is settled are stopped
     progress : show a bar of the candidates fitted on stderr.  The candidates' own per-iteration
         progress (``verbose``) stays off: bars from parallel processes would overwrite each other
 
@@ -80,7 +84,8 @@ def select_model(
     Raises
     ------
     Error
-        If a candidate cannot be fitted to ``steps``, before any is fitted.
+        If a candidate cannot be fitted to ``steps``, before any is fitted, or if a worker
+        process dies.
     """
     models = _candidates(MovementPrimitives(max_iterations=max_iterations), n_primitives, kernels)
     for model in models:
@@ -88,25 +93,35 @@ def select_model(
     sizes = sorted({model.n_primitives for model in models})
     fitted: list[MovementPrimitives] = []
     bar = tqdm(total=len(models), desc="fitting", unit="model", disable=not progress)
-    # a Pool, not an executor: the fits still running when the choice is settled are stopped
-    pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_thread_lock_for_bars)
+    others = set(multiprocessing.active_children())
+    pool = ProcessPoolExecutor(workers, multiprocessing.get_context("spawn"), initializer=_thread_lock_for_bars)
     try:
-        pending = {S: [pool.apply_async(model.fit, (steps,)) for model in models if model.n_primitives == S]
-                   for S in sizes}
+        pending = {S: [pool.submit(model.fit, steps) for model in models if model.n_primitives == S] for S in sizes}
         for S in sizes:
-            for result in pending[S]:
-                fitted.append(result.get())
+            for future in pending[S]:
+                fitted.append(_fitted(future))
                 bar.update()
             if settled([summary_row(m) for m in fitted]):
                 break
     finally:
-        pool.terminate()
-        pool.join()
+        # the fits still running when the choice is settled are stopped, not waited for
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in set(multiprocessing.active_children()) - others:
+            process.terminate()
         bar.total = len(fitted)
         bar.close()
     fitted.sort(key=lambda m: (m.kernel, m.n_primitives))
     rows = [summary_row(m) for m in fitted]
     return fitted[choose(rows)], rows
+
+
+def _fitted(future) -> MovementPrimitives:
+    """A candidate's fit; a worker that died is an :class:`Error`, not a traceback or a hang."""
+    try:
+        return future.result()
+    except BrokenProcessPool:
+        raise Error("a training process died (a crash in compiled code, or out of memory): "
+                    "run the same command again") from None
 
 
 def _thread_lock_for_bars() -> None:
