@@ -85,7 +85,7 @@ class WeightKernels:
         for members, factors in self._shapes:
             for (n, idx), f in zip(self.cache.groups, factors):
                 F = f[factor] ** 2 if square else f[factor]
-                at = (*(a[:, None] for a in members), idx[None, :], slice(None, n))
+                at = _steps_of(members, idx, n)
                 out[at] = np.einsum(subscripts, F, x[at])
         return out
 
@@ -94,7 +94,7 @@ class WeightKernels:
         lam = np.zeros(self.shape)
         for members, factors in self._shapes:
             for (n, idx), f in zip(self.cache.groups, factors):
-                lam[(*(a[:, None] for a in members), idx[None, :], slice(None, n))] = f["lam"]
+                lam[_steps_of(members, idx, n)] = f["lam"]
         return self.alpha[..., None, None] * lam
 
     def to_eigenbasis(self, x: np.ndarray) -> np.ndarray:
@@ -155,6 +155,12 @@ class WeightKernels:
         ones = self.to_eigenbasis(mask)
         inverse = np.divide(1.0, self.b, out=np.zeros(self.shape), where=self.b > 0)
         return (ones * self.to_eigenbasis(w * mask) * inverse).sum(-1) / (ones**2 * inverse).sum(-1)
+
+
+def _steps_of(members: tuple[np.ndarray, np.ndarray], types: np.ndarray, n: int) -> tuple:
+    """The index of the steps of ``types`` (n each) of the GPs ``members`` (signal and
+    primitive indices) in the slot layout: (GPs, types, n)."""
+    return (*(a[:, None] for a in members), types[None, :], slice(None, n))
 
 
 @dataclass(frozen=True)
