@@ -175,7 +175,7 @@ def _prediction_arrays(params: dict, data: BoundData, kernel: str, priors: tuple
     q = posterior(params, data, kernel, np, (A, B))
     d = np.exp(params["log_d"])[:, None, None]
     m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
-    if hasattr(B, "solve_whitened"):  # EM's priors, factorised per kernel shape
+    if isinstance(B, WeightKernels):  # EM's priors, factorised per kernel shape
         beta = B.solve_whitened(params["v"]) * data.mask
     else:
         L_B = slot_algebra.cholesky(B, data.groups)
