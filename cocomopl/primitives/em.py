@@ -34,7 +34,7 @@ from cocomopl.primitives.optimise import (
     _prediction_arrays,
     initial_parameters,
 )
-from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels
+from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels, distinct_shapes
 
 TOLERANCE = 1.0  # nats: a round that raises the bound by less ends the fit
 HYPERPARAMETERS = ("log_alpha_t", "log_ell_t", "log_alpha_w", "log_gamma_w", "log_eta_w")
@@ -174,9 +174,8 @@ def _weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tupl
 def _current_weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_weight_kernels` of the kernels' present shapes (I, S), each distinct shape
     factorised once: most GPs share theirs (:mod:`~cocomopl.primitives.shared_kernels`)."""
-    shapes, shape_of = np.unique(np.stack([gamma.ravel(), eta.ravel()]), axis=1, return_inverse=True)
+    shapes, shape_of = distinct_shapes(gamma, eta)
     inverse, log_det = _weight_kernels(data, *shapes)
-    shape_of = shape_of.reshape(gamma.shape)
     return inverse[shape_of], log_det[shape_of]
 
 

@@ -25,6 +25,13 @@ import numpy as np
 from cocomopl.primitives.bound import BoundData
 
 
+def distinct_shapes(gamma: np.ndarray, eta: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """The distinct kernel shapes among widths ``gamma`` and nuggets ``eta`` (I, S): their
+    widths and nuggets, (k,) each, and the index of each GP's shape, (I, S)."""
+    shapes, shape_of = np.unique(np.stack([gamma.ravel(), eta.ravel()]), axis=1, return_inverse=True)
+    return (shapes[0], shapes[1]), shape_of.reshape(gamma.shape)
+
+
 class ShapeCache:
     """Per unit kernel shape ``K(gamma, eta) = exp(-gamma d2) + eta I`` and per size group of
     step types: its eigenvalues ``lam`` (g, n), eigenvectors ``U``, Cholesky factor ``L`` and
@@ -61,9 +68,8 @@ class WeightKernels:
 
     def __init__(self, cache: ShapeCache, alpha: np.ndarray, gamma: np.ndarray, eta: np.ndarray):
         self.cache, self.alpha, self.gamma, self.eta = cache, alpha, gamma, eta
-        shapes, shape_of = np.unique(np.stack([gamma.ravel(), eta.ravel()], axis=1), axis=0, return_inverse=True)
-        shape_of = shape_of.reshape(gamma.shape)
-        self._shapes = [(np.nonzero(shape_of == k), cache.factors(g, e)) for k, (g, e) in enumerate(shapes)]
+        shapes, shape_of = distinct_shapes(gamma, eta)
+        self._shapes = [(np.nonzero(shape_of == k), cache.factors(g, e)) for k, (g, e) in enumerate(zip(*shapes))]
         self.b = self.eigenvalues()
 
     @property
