@@ -12,7 +12,7 @@ from cocomopl.motion import Motion
 from cocomopl.motion_file import read_motion, write_motions
 from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model, mjcf
 from cocomopl.sim.rollout import _placed_on_floor, simulate
-from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, _leg_maps
+from cocomopl.sim.stabilizer import TILT_DEAD_BAND, Stabilizer, StabilizerGains, _leg_maps
 
 from conftest import synthetic
 
@@ -144,6 +144,44 @@ def test_ankle_moment_torques_do_the_work_of_the_ground_moment(robot):
         turn = pin.log3(after.rotation @ before.rotation.T)  # world frame
         m = np.array([3.0, -2.0])
         assert (moments[j] @ m) @ dq == pytest.approx(-m @ turn[:2], rel=1e-3)
+
+
+def test_a_tilted_stance_sole_is_taken_up_by_its_ankle_and_let_go_when_unloaded(robot, sim):
+    """The ground turns the right sole 3.4 degrees from the plan: in single support on it, once
+    it carries load, the ankle offsets turn the planned sole onto the measured one but for the
+    dead band, the leg above the ankle held; unloaded, or in double support, they let go."""
+    reference = _standing(robot, 1.0)
+    reference.contact[:, 0] = False  # standing on the right sole
+    roles = robot.leg_roles()["right"]
+    q = reference.q[0].copy()
+    q[7 + roles["ankle_pitch"]] += 0.05
+    q[7 + roles["ankle_roll"]] -= 0.03
+    data = mujoco.MjData(sim.mj)
+    data.qpos[:] = sim.qpos(q)
+    mujoco.mj_kinematics(sim.mj, data)
+    measured = data.site_xmat[sim.sole_sites["right"]].reshape(3, 3)
+    load = np.zeros((2, 6))
+    ground = type("Ground", (), {"__getattr__": lambda self, name: getattr(sim, name),
+                                 "sole_wrenches": lambda self, data: load})()
+
+    def settled(control):
+        for _ in range(50):  # ten times the take-up's filter
+            control.correction(data, 0.0)
+        return control.tilts
+
+    load[:, 2] = 400.0
+    tilts = settled(control := Stabilizer(ground, reference))
+    taken_up = reference.q[0].copy()
+    taken_up[7 + roles["ankle_pitch"]] += tilts[1, 0]
+    taken_up[7 + roles["ankle_roll"]] += tilts[1, 1]
+    residual = pin.log3(measured.T @ robot.frame_placement(taken_up, robot.foot_frames["right"]).rotation)
+    assert np.linalg.norm(residual) == pytest.approx(TILT_DEAD_BAND, abs=2e-3)
+    assert np.linalg.norm([0.05, 0.03]) > 5 * TILT_DEAD_BAND
+    assert np.allclose(tilts[0], 0.0)  # the swinging sole
+    load[:, 2] = 0.0
+    assert np.abs(settled(control)).max() < 1e-3 * np.linalg.norm([0.05, 0.03])
+    load[:, 2] = 400.0
+    assert np.allclose(settled(Stabilizer(ground, _standing(robot, 1.0))), 0.0)  # double support
 
 
 def _push_excursion(robot, sim, reference, dcm_gain: float, push_n: float, ankle_damping: float) -> float:
