@@ -170,7 +170,8 @@ def test_a_tilted_stance_sole_is_taken_up_by_its_ankle_and_let_go_when_unloaded(
         return control.tilts
 
     load[:, 2] = 400.0
-    tilts = settled(control := Stabilizer(ground, reference))
+    control = Stabilizer(ground, reference)
+    tilts = settled(control)
     taken_up = reference.q[0].copy()
     taken_up[7 + roles["ankle_pitch"]] += tilts[1, 0]
     taken_up[7 + roles["ankle_roll"]] += tilts[1, 1]

@@ -26,13 +26,13 @@ control is steered by the DCM feedback:
   lands early or carries too much load is drawn up and the other pushed down.  The sole
   displacement becomes leg-joint offsets through the damped inverse of the leg Jacobian,
   taken on the reference.
-* **Sole tilt adaptation** (single support).  A loaded stance sole that the ground tilts away from the
-  reference's orientation (a sole across a bump's edge, a sloping floor) is measured from
-  the pelvis attitude and the leg's joints (here the simulation's sole pose); the ankle
-  takes up the tilt beyond a small dead band, so that the leg keeps its planned posture in
-  the world while the sole rests on the ground as it lies.  Without it a sole across an
-  edge rolls over the edge as the centre of pressure moves onto it, and the whole robot
-  tips with it.
+* **Sole tilt adaptation** (single support).  A loaded stance sole that the ground tilts
+  away from the reference's orientation (a sole across a bump's edge, a sloping floor) is
+  measured from the pelvis attitude and the leg's joints (here the simulation's sole
+  pose); the ankle takes up the tilt beyond a small dead band, so that the leg keeps its
+  planned posture in the world while the sole rests on the ground as it lies.  Without it a
+  sole across an edge rolls over the edge as the centre of pressure moves onto it, and the
+  whole robot tips with it.
 
 The first two act only on feet the reference has in contact; a swinging foot's ankle
 corrections decay with a faster leak, so that it lands flat.  ``cocomopl simulate --no-stabilizer`` switches it off.
@@ -199,6 +199,7 @@ class Stabilizer:
         out = np.zeros(self.robot.nu)
         shift = self._zmp_shift(data, k)
         forces = self.sim.sole_wrenches(data)[:, 2]
+        stance = self.stance(time)
         for j, side in enumerate(SIDES):
             roles = self.roles[side]
             ankles = [roles["ankle_pitch"], roles["ankle_roll"]]
@@ -213,7 +214,7 @@ class Stabilizer:
                 self.ankles[ankles] -= self.dt * self.ankles[ankles] / SWING_LEAK
             # in single support only: held in double support, a take-up kept both soles rolled
             # onto their toes as the robot came to rest after a start step played alone
-            resting = self.contact[k].sum() == 1 and self.contact[k, j] and forces[j] > TILT_MIN_FORCE
+            resting = stance == side and forces[j] > TILT_MIN_FORCE
             target = self._tilt_take_up(data, k, j, ankles) if resting else np.zeros(2)
             self.tilts[j] += (target - self.tilts[j]) * min(self.dt / TILT_FILTER, 1.0)
             out[ankles] += self.tilts[j]
