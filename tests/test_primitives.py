@@ -330,7 +330,8 @@ def test_placed_walk_is_a_consistent_motion(robot):
 
     # the bundled model: the tiny test model's steps do not all fit the legs' reach
     model = load_model(BUNDLED_MODEL)
-    motion = place_steps(robot, generate_steps(model, sequence_specs([0.25, 0.25, 0.25])), dt=0.025)
+    steps = generate_steps(model, sequence_specs([0.25, 0.25, 0.25]))
+    motion = place_steps(robot, steps, dt=0.025)
     assert motion.q.shape[1] == robot.model.nq and motion.tau.shape[1] == len(robot.joint_names)
     # 2 junctions, and the stop's two touchdowns (its step, then the other foot closing up)
     assert np.all(np.diff(motion.t) >= 0) and len(motion.impacts) == 4
@@ -343,6 +344,10 @@ def test_placed_walk_is_a_consistent_motion(robot):
         if kind == "ss":
             j = int(np.flatnonzero(motion.contact[first + 1])[0])
             assert np.abs(soles[first : last + 1, j] - soles[first, j]).max() < 1e-6
+    # every phase lasts as predicted: a sample at a phase's edge (0.4 s lands at 0.39999...) belongs to
+    # the phase it opens, so refinement poses the dataset's OCP (16 knots of double support, not 17)
+    placed = [motion.t[last] - motion.t[first] for _, first, last in motion.phases]
+    np.testing.assert_allclose(placed, np.concatenate([s.durations for s in steps]), atol=1e-9)
     # at rest the pelvis hangs evenly on both soles, planned together three 250 mm steps ahead
     assert soles[-1, :, 0].mean() == pytest.approx(0.75, abs=1e-6)
 
