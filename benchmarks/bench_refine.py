@@ -6,7 +6,10 @@ same OCP -- same start, same end target, same settings and stopping test -- is s
 from the dataset's own initial guess (feet on their paths by inverse kinematics: "cold").
 Per step: iterations, wall time and final cost, warm and cold, and whether each converged.
 
-    python benchmarks/bench_refine.py [--n 20] [--seed 5] [--workers 2] [--json]
+    python benchmarks/bench_refine.py [--n 20] [--seed 5] [--workers 2] [--warm-start nearest] [--json]
+
+``--warm-start nearest`` warm-starts each step from the dataset's nearest solved step instead
+of the generated one (``cocomopl.ocp.refine.nearest_solved_step``); the cold solves are the same.
 
 Seed 5 is used by no other benchmark.  Keys: ``iterations_median``, ``iterations_p95``,
 ``cold_iterations_median``, ``cost_ratio_to_cold_median``, ``cost_ratio_to_cold_max``
@@ -25,6 +28,7 @@ import json
 import multiprocessing as mp
 import sys
 import time
+from functools import partial
 
 import numpy as np
 from tqdm import tqdm
@@ -32,11 +36,12 @@ from tqdm import tqdm
 from random_walks import random_lengths
 
 from cocomopl.gait import M_GEN_MM
+from cocomopl.ocp.refine import WARM_STARTS
 
 SEED = 5
 
 
-def run_one(lengths_mm: list[float]) -> dict:
+def run_one(lengths_mm: list[float], warm_start_from: str = "generated") -> dict:
     from cocomopl.data import BUNDLED_DATASET
     from cocomopl.motion_file import read_motions
     from cocomopl.ocp.refine import cold_solve, torque_cost
@@ -44,7 +49,7 @@ def run_one(lengths_mm: list[float]) -> dict:
     from cocomopl.pipeline import generate_walk, refine
 
     walk = generate_walk([x / 1000 for x in lengths_mm])
-    refined, summary = refine(walk.motion)
+    refined, summary = refine(walk.motion, warm_start_from=warm_start_from)
     _, attrs = read_motions(BUNDLED_DATASET, dataset=True)
     settings = OCPSettings.from_saved(attrs["settings"])
     rows = []
@@ -89,14 +94,17 @@ def main() -> int:
     parser.add_argument("--n", type=int, default=20, help="random sequences besides M_gen (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=SEED)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--warm-start", default="generated", choices=WARM_STARTS,
+                        help="what each step's OCP starts from (default: %(default)s)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     sequences = [[float(x) for x in M_GEN_MM.split(",")]] + [random_lengths(rng, 100.0) for _ in range(args.n)]
     started = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:
-        walks = list(tqdm(pool.imap(run_one, sequences), total=len(sequences), desc="walks refined", file=sys.stderr))
-    summary = {**summarise(walks), "m_gen": summarise(walks[:1]), "seed": args.seed,
+        walks = list(tqdm(pool.imap(partial(run_one, warm_start_from=args.warm_start), sequences), total=len(sequences),
+                          desc="walks refined", file=sys.stderr))
+    summary = {**summarise(walks), "m_gen": summarise(walks[:1]), "seed": args.seed, "warm_start": args.warm_start,
                "wall_time_s": time.perf_counter() - started, "walks": walks}
     if args.json:
         print(json.dumps(summary))

@@ -212,6 +212,8 @@ def _note_replacing(*paths: str | Path, inputs=(), folder: bool = False, given: 
             _warn(note)
 
 
+WARM_START_HELP = ("what each step's OCP starts from: 'generated' (the generated step, the default) or 'nearest' "
+                   "(the dataset's solved step of the same kind nearest it; docs/method.md#refinement)")
 METRIC_ROWS = (
     ("fell", "fell", "{}"),
     ("peak_force_over_weight", "peak vertical force / weight", "{:.2f}"),
@@ -374,7 +376,8 @@ def cmd_generate(args) -> int:
     _note_replacing(args.out, inputs=[args.model])
     request = _walk_request(args)
     payload = generate_walk_file(request.pop("lengths"), args.out, args.model, args.dt, args.first_swing, args.strict,
-                                 args.command_line, args.refine, args.data, progress=not args.json, **request)
+                                 args.command_line, args.refine, args.data, progress=not args.json,
+                                 warm_start_from=args.warm_start or "generated", **request)
     for message in payload["warnings"]:
         _warn(message)
     rows = payload["steps"]
@@ -394,16 +397,26 @@ def cmd_generate(args) -> int:
 
 
 def _check_refine_options(args) -> None:
-    """``--data`` names the dataset ``--refine`` solves with; alone it would be ignored."""
-    if args.data and not args.refine:
-        raise Error("--data is used only with --refine")
+    """``--data`` and ``--warm-start`` say how ``--refine`` solves; alone they would be ignored."""
+    for given, option in ((args.data, "--data"), (args.warm_start, "--warm-start")):
+        if given and not args.refine:
+            raise Error(f"{option} is used only with --refine")
+    _check_warm_start(args.warm_start)
+
+
+def _check_warm_start(name: str | None) -> None:
+    """Refuse an unknown ``--warm-start`` before any work is done."""
+    from cocomopl.ocp.refine import WARM_STARTS
+
+    if name is not None and name not in WARM_STARTS:
+        raise Error(f"--warm-start {name!r} is not one of {', '.join(WARM_STARTS)}")
 
 
 def _refine_lines(summary: dict) -> list[str]:
-    """The refinement's table: iterations and convergence per step, then the totals."""
-    lines = [f"{'refined step':24s} {'iterations':>10s}  converged"]
-    lines += [f"{step:24s} {n:10d}  {'yes' if ok else 'NO'}"
-              for step, n, ok in zip(summary["steps"], summary["iterations"], summary["converged"])]
+    """The refinement's table: iterations, convergence and warm start per step, then the totals."""
+    lines = [f"{'refined step':24s} {'iterations':>10s}  converged  warm start"]
+    lines += [f"{step:24s} {n:10d}  {'yes' if ok else 'NO':9s}  {guess}"
+              for step, n, ok, guess in zip(summary["steps"], summary["iterations"], summary["converged"], summary["guess"])]
     lines.append(f"refined in {summary['refine_s']:.1f} s (median {summary['iterations_median']:g} iterations per step); "
                  f"the generated walk's torque cost is {summary['raw_cost_ratio']:.3f} x the refined one's")
     return lines
@@ -412,8 +425,10 @@ def _refine_lines(summary: dict) -> list[str]:
 def cmd_refine(args) -> int:
     from cocomopl.jobs import refine_walk_file
 
+    _check_warm_start(args.warm_start)
     _note_replacing(args.out or f"{Path(args.file).stem}-refined.h5", inputs=[p for p in (args.file, args.data) if p])
-    payload = refine_walk_file(args.file, args.motion, args.out, args.data, args.command_line, progress=not args.json)
+    payload = refine_walk_file(args.file, args.motion, args.out, args.data, args.command_line, progress=not args.json,
+                               warm_start_from=args.warm_start)
     _emit(args, payload, "\n".join([*_refine_lines(payload), f"wrote {payload['output']}"]))
     return 0 if all(payload["converged"]) else 1
 
@@ -447,7 +462,7 @@ def cmd_walk(args) -> int:
     payload = walk_report(request.pop("lengths"), out, args.model, _sim_settings(args), video=not args.no_video,
                           progress=not args.json, dt=args.dt, first_swing=args.first_swing, strict=args.strict,
                           command=args.command_line, refine_steps=args.refine, dataset=args.data, recover=args.recover,
-                          reaim=args.reaim,
+                          reaim=args.reaim, warm_start_from=args.warm_start or "generated",
                           **request)
     for message in payload["warnings"]:
         _warn(message)
@@ -758,6 +773,7 @@ def _primitives_parsers(sub) -> None:
     refine.add_argument("--data", metavar="DATASET.h5",
                         help="OC dataset whose OCP settings the steps are solved with (default: the bundled one)")
     refine.add_argument("--out", metavar="FILE.h5", help="refined motion HDF5 (default: <file>-refined.h5)")
+    refine.add_argument("--warm-start", default="generated", metavar="FROM", help=WARM_START_HELP)
     _json_option(refine)
     refine.set_defaults(func=cmd_refine)
 
@@ -767,6 +783,7 @@ def _refine_options(parser: argparse.ArgumentParser) -> None:
                         help="refine every generated step by the OCP it was learned from (docs/method.md#refinement)")
     parser.add_argument("--data", metavar="DATASET.h5",
                         help="with --refine: the OC dataset whose OCP settings are used (default: the bundled one)")
+    parser.add_argument("--warm-start", metavar="FROM", help="with --refine: " + WARM_START_HELP)
 
 
 def _simulation_parsers(sub) -> None:

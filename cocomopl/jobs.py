@@ -386,10 +386,12 @@ def generate_walk_file(
     progress: bool = False,
     landings=None,
     goal=None,
+    warm_start_from: str = "generated",
 ) -> dict:
     """Generate a walk with the primitives and write it as one motion to ``out`` (HDF5); with
     ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one
-    the model belongs with; :func:`cocomopl.pipeline.refine`).  The walk is given by step ``lengths`` (m, start ...
+    the model belongs with; :func:`cocomopl.pipeline.refine`, warm-started as
+    ``warm_start_from`` says).  The walk is given by step ``lengths`` (m, start ...
     stop), footstep ``landings`` or a ``goal`` pose (or several, in turn), as in
     :func:`cocomopl.pipeline.generate_walk`.
 
@@ -406,7 +408,7 @@ def generate_walk_file(
     walk = generate_walk(lengths, model, dt, first_swing, strict, landings, goal)
     motion, refined = walk.motion, None
     if refine_steps:
-        refined_walk, refined = refine(motion, dataset, progress)
+        refined_walk, refined = refine(motion, dataset, progress, warm_start_from)
         motion = refined_walk.motion
     provenance = walk_provenance(command, model, dataset=dataset)
     write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": motion.meta["producer"], **provenance})
@@ -430,9 +432,11 @@ def refine_walk_file(
     dataset: str | Path | None = None,
     command: str | None = None,
     progress: bool = False,
+    warm_start_from: str = "generated",
 ) -> dict:
     """Refine a generated walk of a file by the OCPs of ``dataset`` (default: the bundled one,
-    the omnidirectional one for a walk that turns or side-steps) and write the refined walk to
+    the omnidirectional one for a walk that turns or side-steps), each warm-started as
+    ``warm_start_from`` says (:func:`cocomopl.pipeline.refine`), and write the refined walk to
     ``out`` (default: ``<file>-refined.h5``).
 
     Returns the summary of :func:`cocomopl.pipeline.refine`.
@@ -442,7 +446,7 @@ def refine_walk_file(
     walk = read_motion(path, motion_name)
     dataset = dataset_path(dataset, omni=not all(spec.straight for spec in walk.steps))
     out = output_file(out or f"{Path(path).stem}-refined.h5", "motion.h5", inputs=[path, dataset])
-    refined, summary = refine(walk, dataset, progress)
+    refined, summary = refine(walk, dataset, progress, warm_start_from)
     write_motions(out, {refined.motion.name: refined.motion},
                   {"robot": walk.robot, "producer": "ocp", **stamp(command, ("crocoddyl", "pin"), walk=path, dataset=dataset)})
     return {"output": str(out), **summary}

@@ -216,15 +216,17 @@ def generate_walk(
     return GeneratedWalk(robot, model, motion, steps, generation_s, placement_s, messages)
 
 
-def refine(motion: Motion, dataset_path: str | Path | None = None, progress: bool = False):
+def refine(motion: Motion, dataset_path: str | Path | None = None, progress: bool = False,
+           warm_start_from: str = "generated"):
     """Refine a generated walk by the OCPs of the dataset it was learned from (by default the
     bundled one, the omnidirectional one for a walk that turns or side-steps;
-    :func:`cocomopl.ocp.refine.refine_walk`).
+    :func:`cocomopl.ocp.refine.refine_walk`), each warm-started from the generated step or,
+    with ``warm_start_from="nearest"``, from the dataset's nearest solved step.
 
     Returns the :class:`~cocomopl.ocp.refine.RefinedWalk` and its summary: per step the
-    solver's ``iterations`` and whether it ``converged``, ``iterations_median``, ``refine_s``
-    and ``raw_cost_ratio``, the torque cost ∫Στ²dt of the generated walk as placed over the
-    refined walk's.
+    solver's ``iterations``, whether it ``converged`` and the ``guess`` it started from,
+    ``iterations_median``, ``refine_s`` and ``raw_cost_ratio``, the torque cost ∫Στ²dt of the
+    generated walk as placed over the refined walk's.
     """
     import statistics
 
@@ -238,10 +240,13 @@ def refine(motion: Motion, dataset_path: str | Path | None = None, progress: boo
     check_refinable(motion, robot)
     gait_states = {m.steps[0].start_footstep.gait_key: np.concatenate([m.q[0], m.v[0]]) for m in dataset.values()
                    if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
-    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress, gait_states)
+    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress, gait_states,
+                          warm_start_from, dataset)
     iterations = [row["iterations"] for row in refined.steps]
     summary = {
         "steps": [row["step"] for row in refined.steps],
+        "warm_start": warm_start_from,
+        "guess": [row["guess"] for row in refined.steps],
         "iterations": iterations,
         "converged": [row["converged"] for row in refined.steps],
         "fallback": [row["fallback"] for row in refined.steps],
@@ -337,6 +342,7 @@ def walk_report(
     goal: Goal | Sequence[Goal] | None = None,
     recover: bool = False,
     reaim: bool | None = None,
+    warm_start_from: str = "generated",
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 
@@ -345,8 +351,8 @@ def walk_report(
     robot's feet ended from the last (``final_position_error_m``, ``final_yaw_error_deg``).
 
     With ``refine_steps`` the generated walk is refined by the OCPs of ``dataset`` (default:
-    the bundled one; :func:`refine`) and the refined walk is simulated; the summary is
-    ``refine`` in the report.
+    the bundled one; :func:`refine`, warm-started as ``warm_start_from`` says) and the
+    refined walk is simulated; the summary is ``refine`` in the report.
     ``out_dir`` receives ``motions.h5`` (the generated and the measured motion),
     ``metrics.json``, comparison plots (ZMP, contact forces, knee torques, leg joints),
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
@@ -381,7 +387,7 @@ def walk_report(
         walk = generate_walk(lengths, model_path, dt, first_swing, strict, landings, goal)
         planned, refined = {"generated": walk.motion}, None
         if refine_steps:
-            refined_walk, refined = refine(walk.motion, dataset, progress)
+            refined_walk, refined = refine(walk.motion, dataset, progress, warm_start_from)
             planned["refined"] = refined_walk.motion
         recovery = recovery_for(walk, dt or PLAN_DT) if recover else None
         reaiming = reaiming_for(walk, dt or PLAN_DT) if reaim else None

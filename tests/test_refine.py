@@ -7,6 +7,7 @@ bundled model and refined with those settings.
 import dataclasses
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from cocomopl.analysis.feasibility import check_motion
@@ -19,8 +20,10 @@ from cocomopl.ocp.refine import (
     best_expected_decrease,
     check_refinable,
     cold_solve,
+    nearest_solved_step,
     refine_walk,
     solve_warm,
+    solved_step_guess,
     torque_cost,
 )
 from cocomopl.ocp.solve import step_plan
@@ -118,12 +121,71 @@ def test_refining_against_a_file_that_is_not_a_dataset_gets_one_line(tmp_path):
     assert not (tmp_path / "r.h5").exists()
 
 
+@pytest.mark.parametrize("option", [["--data", "x.h5"], ["--warm-start", "nearest"]])
 @pytest.mark.parametrize("command", ["generate", "walk"])
-def test_data_without_refine_gets_one_line_and_writes_nothing(tmp_path, command):
+def test_refine_options_without_refine_get_one_line_and_write_nothing(tmp_path, command, option):
     out = tmp_path / "out"
-    result = run_cli(command, "--lengths-mm", "200,200", "--data", "x.h5", "--out", str(out), cwd=tmp_path)
-    assert_one_line_error(result, "--data", "--refine")
+    result = run_cli(command, "--lengths-mm", "200,200", *option, "--out", str(out), cwd=tmp_path)
+    assert_one_line_error(result, option[0], "--refine")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", [["generate", "--lengths-mm", "200,200", "--refine"], ["refine", "walk.h5"]])
+def test_an_unknown_warm_start_gets_one_line_and_writes_nothing(tmp_path, command):
+    result = run_cli(*command, "--warm-start", "neighbour", "--out", str(tmp_path / "out.h5"), cwd=tmp_path)
+    assert_one_line_error(result, "--warm-start", "neighbour", "nearest")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def bundled_steps():
+    from cocomopl.data import BUNDLED_DATASET
+
+    motions, _ = read_motions(BUNDLED_DATASET, dataset=True)
+    return motions
+
+
+def test_each_solved_step_is_its_own_nearest_and_stays_so_a_fifth_of_the_grid_away(robot, bundled_steps):
+    """The bundled lengths lie 50 mm apart: 10 mm off in each length, a step's own solution
+    is still the nearest of its kind (20 mm against at least 40 mm for any other)."""
+    for name, motion in bundled_steps.items():
+        spec = motion.steps[0]
+        assert nearest_solved_step(robot, spec, bundled_steps).name == name
+        nudged = dataclasses.replace(spec, start_length=spec.start_length and spec.start_length + 0.01,
+                                     end_length=spec.end_length and spec.end_length + 0.01)
+        assert nearest_solved_step(robot, nudged, bundled_steps).name == name
+    cyclic_only = {name: m for name, m in bundled_steps.items() if m.steps[0].kind == "cyclic"}
+    with pytest.raises(Error, match="no start step"):
+        nearest_solved_step(robot, StepSpec("start", 0.0, 0.25), cyclic_only)
+
+
+@pytest.mark.parametrize("name", ["transition_250_300_L", "transition_250_300_R", "stop_300_R"])
+def test_a_solved_step_guess_is_the_same_wherever_the_step_stands(robot, bundled_steps, name):
+    """Moved and turned anywhere, a solved step gives the same guess: its stance sole at the
+    origin, facing +x, right support (a left-support step is mirrored)."""
+    from cocomopl.ocp.problems import translate_state, turn_state
+
+    step = bundled_steps[name]
+    guess = solved_step_guess(robot, step)
+    states = turn_state(robot, translate_state(robot, np.hstack([step.q, step.v]), 0.7, -1.3), 0.6)
+    moved = dataclasses.replace(step, q=states[:, : robot.model.nq], v=states[:, robot.model.nq :])
+    np.testing.assert_allclose(solved_step_guess(robot, moved).states, guess.states, atol=1e-9)
+    assert guess.spec.swing_side == "left"
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, guess.states[0, : robot.model.nq])
+    sole = data.oMf[robot.foot_frames["right"]]
+    np.testing.assert_allclose(sole.translation[:2], 0.0, atol=1e-9)
+    np.testing.assert_allclose(sole.rotation[:2, 0], [1.0, 0.0], atol=1e-9)
+
+
+def test_a_walk_refined_from_the_nearest_solved_steps_converges_on_them(robot, walk, small_dataset):
+    motions, _ = read_motions(small_dataset)
+    refined = refine_walk(robot, walk.motion, SMALL, warm_start_from="nearest", solved=motions)
+    assert [row["converged"] for row in refined.steps] == [True, True]
+    assert [row["guess"] for row in refined.steps] == ["start_200_L", "stop_200_L"]  # right support, as solved
+    assert check_motion(robot, refined.motion, SMALL.friction)["inverse_dynamics_residual"] < 1e-6
+    with pytest.raises(Error, match="needs the dataset's steps"):
+        refine_walk(robot, walk.motion, SMALL, warm_start_from="nearest")
 
 
 def test_a_step_ending_at_a_trained_length_is_held_to_the_datasets_gait_state(robot, walk, small_dataset):

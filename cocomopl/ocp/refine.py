@@ -71,6 +71,8 @@ START_BLEND_S = 0.4  # s over which a warm start moves from its pinned start ont
 FEASIBLE = 1e-6  # largest dynamic gap of a converged solution (the dataset's)
 WINDOW = 5  # iterations over which a stalled solver's cost must settle
 DAMPED = 100.0  # regularisation, in multiples of its least, above which a backward pass is too damped to test
+# what each step's OCP is warm-started from: the generated step, or the dataset's solved step nearest it
+WARM_STARTS = ("generated", "nearest")
 
 
 @dataclass
@@ -103,26 +105,59 @@ def step_guesses(robot: Robot, walk: Motion) -> list[StepGuess]:
     """
     feet = footsteps(robot, walk.steps)
     ends = [*walk.step_starts[1:], walk.n]
-    return [_guess(robot, walk, np.arange(int(walk.step_starts[k]), min(int(ends[k]) + 1, walk.n)), k, feet)
+    return [_guess(robot, walk, np.arange(int(walk.step_starts[k]), min(int(ends[k]) + 1, walk.n)), k,
+                   *_stance(feet[k], walk.steps[k]))
             for k in range(len(walk.steps))]
 
 
 def walk_guess(robot: Robot, walk: Motion) -> StepGuess:
     """A whole generated ``walk`` in the frame of its first step's OCP, as one guess: for a
     problem of several steps, such as the warm-up walk of a new training length."""
-    return _guess(robot, walk, np.arange(walk.n), 0, footsteps(robot, walk.steps))
+    return _guess(robot, walk, np.arange(walk.n), 0, *_stance(footsteps(robot, walk.steps)[0], walk.steps[0]))
 
 
-def _guess(robot: Robot, walk: Motion, rows: np.ndarray, k: int, feet: list[dict]) -> StepGuess:
-    """The samples ``rows`` of ``walk`` in the frame of step ``k``'s stance sole (right support)."""
+def nearest_solved_step(robot: Robot, spec: StepSpec, solved: dict[str, Motion]) -> Motion:
+    """The solved step (a dataset's motion) of ``spec``'s kind and swinging foot whose
+    footsteps lie nearest ``spec``'s: summed differences of length and width (m) and of
+    turn, weighted by the sole's front length (how far a turn moves the toe, m/rad)."""
+    def distance(other: StepSpec) -> float:
+        pairs = zip((spec.start_footstep, spec.end_footstep), (other.start_footstep, other.end_footstep))
+        return sum(abs(a.length - b.length) + abs(a.width - b.width) + robot.sole.front * abs(a.turn - b.turn)
+                   for a, b in pairs)
+    alike = [m for m in solved.values() if len(m.steps) == 1
+             and (m.steps[0].kind, m.steps[0].swing_side) == (spec.kind, spec.swing_side)]
+    if not alike:
+        raise Error(f"the dataset has no {spec.kind} step swinging the {spec.swing_side} foot to warm-start {spec.name}")
+    return min(alike, key=lambda m: distance(m.steps[0]))
+
+
+def solved_step_guess(robot: Robot, step: Motion) -> StepGuess:
+    """A solved step (one step, as a dataset holds it) in its OCP's frame, placed by its own
+    stance sole at its first sample."""
+    spec = step.steps[0]
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, step.q[0])
+    sole = data.oMf[robot.foot_frames[OTHER_SIDE[spec.swing_side]]]
+    yaw = float(np.arctan2(sole.rotation[1, 0], sole.rotation[0, 0]))
+    return _guess(robot, step, np.arange(step.n), 0, sole.translation[:2], yaw)
+
+
+def _stance(feet: dict, spec: StepSpec) -> tuple[np.ndarray, float]:
+    """Position (2,) and yaw of ``spec``'s stance sole at its start, from :func:`footsteps`."""
+    stance = OTHER_SIDE[spec.swing_side]
+    return feet["start"][stance][:2], feet["yaw"]["start"][stance]
+
+
+def _guess(robot: Robot, walk: Motion, rows: np.ndarray, k: int, origin: np.ndarray, yaw: float) -> StepGuess:
+    """The samples ``rows`` of ``walk`` in the frame of step ``k``'s stance sole (right
+    support), which stands at ``origin`` (x, y) turned by ``yaw`` at the step's start."""
     spec = walk.steps[k]
     first, last = int(rows[0]), int(rows[-1])
     touchdowns = [i for i in walk.impacts if first <= i < last]
     segment = np.searchsorted(np.array(touchdowns), rows, side="left")
     stance = OTHER_SIDE[spec.swing_side]
-    origin = feet[k]["start"][stance][:2]
     states = translate_state(robot, np.hstack([walk.q[rows], walk.v[rows]]), -origin[0], -origin[1])
-    states = turn_state(robot, states, -feet[k]["yaw"]["start"][stance])
+    states = turn_state(robot, states, -yaw)
     torques = walk.tau[rows]
     if stance == "left":
         states, torques, spec = mirror_state(robot, states), mirror_joints(robot, torques), spec.mirrored()
@@ -317,29 +352,40 @@ def check_refinable(walk: Motion, robot: Robot) -> None:
 
 
 def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: bool = False,
-                gait_states: dict | None = None) -> RefinedWalk:
+                gait_states: dict | None = None, warm_start_from: str = "generated",
+                solved: dict[str, Motion] | None = None) -> RefinedWalk:
     """Refine every step of a generated ``walk`` (straight, turning or side-stepping) by the
     OCP it approximates, in order; ``gait_states``: the dataset's gait states ``S`` by
     footstep, end targets where a step ends at one (:func:`step_plan_from`).
 
-    A step the warm start leaves unaccepted is solved again from the dataset's own initial
+    Each OCP is posed by the generated step (its phases, start and end) and warm-started,
+    as ``warm_start_from`` says (:data:`WARM_STARTS`), from the generated step or from the
+    nearest of the ``solved`` steps (the dataset's motions; :func:`nearest_solved_step`).  A
+    step the warm start leaves unaccepted is solved again from the dataset's own initial
     guess (``fallback``).  Returns the refined walk (world frame, on the walk's footsteps)
-    and per step its iterations, convergence, cost, wall time and whether it fell back.
+    and per step its iterations, convergence, cost, wall time, warm start (``guess``) and
+    whether it fell back.
     """
     check_refinable(walk, robot)
+    if warm_start_from not in WARM_STARTS:
+        raise Error(f"unknown warm start {warm_start_from!r}; choose one of {', '.join(WARM_STARTS)}")
+    if warm_start_from == "nearest" and not solved:
+        raise Error("a warm start from the nearest solved step needs the dataset's steps")
     started = time.perf_counter()
     feet = footsteps(robot, walk.steps)
     placed, rows, plans, x0, tau0 = [], [], [], None, None
     for k, guess in enumerate(tqdm(step_guesses(robot, walk), desc="refining steps", disable=not progress, leave=False)):
         plan = step_plan_from(robot, guess, x0, settings, tau0, gait_states)
         plans.append(plan)
-        xs, _ = warm_start(robot, guess, plan.phases, plan.x0, settings.dt)
+        nearest = nearest_solved_step(robot, guess.spec, solved) if warm_start_from == "nearest" else None
+        start_from = guess if nearest is None else solved_step_guess(robot, nearest)
+        xs, _ = warm_start(robot, start_from, plan.phases, plan.x0, settings.dt)
         solution = solve_warm(robot, plan, settings, xs, partial(inverse_dynamics_controls, robot))
         if not solution.stats["converged"]:
             solution = _fall_back(robot, plan, settings, solution)
         motion = to_motion(robot, solution, settings)
-        rows.append({"step": walk.steps[k].name, **{key: solution.stats[key] for key in
-                                                    ("iterations", "converged", "cost", "solve_time_s", "fallback")}})
+        rows.append({"step": walk.steps[k].name, "guess": "generated" if nearest is None else nearest.name,
+                     **{key: solution.stats[key] for key in ("iterations", "converged", "cost", "solve_time_s", "fallback")}})
         x0, tau0 = _next_start(robot, solution)
         stance = OTHER_SIDE[walk.steps[k].swing_side]
         if stance == "left":
@@ -379,16 +425,18 @@ def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int 
 
 
 __all__ = [
+    "WARM_STARTS",
     "RefinedWalk",
     "best_expected_decrease",
     "check_refinable",
     "cold_solve",
+    "nearest_solved_step",
     "refine_walk",
     "solve_warm",
+    "solved_step_guess",
     "step_guesses",
     "step_plan_from",
     "torque_cost",
     "walk_guess",
     "warm_start",
 ]
-
