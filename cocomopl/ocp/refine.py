@@ -116,19 +116,18 @@ def walk_guess(robot: Robot, walk: Motion) -> StepGuess:
     return _guess(robot, walk, np.arange(walk.n), 0, *_stance(footsteps(robot, walk.steps)[0], walk.steps[0]))
 
 
-def nearest_solved_step(robot: Robot, spec: StepSpec, solved: dict[str, Motion]) -> Motion:
+def nearest_solved_step(robot: Robot, spec: StepSpec, solved: dict[str, Motion]) -> Motion | None:
     """The solved step (a dataset's motion) of ``spec``'s kind and swinging foot whose
     footsteps lie nearest ``spec``'s: summed differences of length and width (m) and of
-    turn, weighted by the sole's front length (how far a turn moves the toe, m/rad)."""
+    turn, weighted by the sole's front length (how far a turn moves the toe, m/rad).
+    ``None`` where ``solved`` holds no step of that kind."""
     def distance(other: StepSpec) -> float:
         pairs = zip((spec.start_footstep, spec.end_footstep), (other.start_footstep, other.end_footstep))
         return sum(abs(a.length - b.length) + abs(a.width - b.width) + robot.sole.front * abs(a.turn - b.turn)
                    for a, b in pairs)
     alike = [m for m in solved.values() if len(m.steps) == 1
              and (m.steps[0].kind, m.steps[0].swing_side) == (spec.kind, spec.swing_side)]
-    if not alike:
-        raise Error(f"the dataset has no {spec.kind} step swinging the {spec.swing_side} foot to warm-start {spec.name}")
-    return min(alike, key=lambda m: distance(m.steps[0]))
+    return min(alike, key=lambda m: distance(m.steps[0]), default=None)
 
 
 def solved_step_guess(robot: Robot, step: Motion) -> StepGuess:
@@ -360,7 +359,8 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
 
     Each OCP is posed by the generated step (its phases, start and end) and warm-started,
     as ``warm_start_from`` says (:data:`WARM_STARTS`), from the generated step or from the
-    nearest of the ``solved`` steps (the dataset's motions; :func:`nearest_solved_step`).  A
+    nearest of the ``solved`` steps (the dataset's motions; :func:`nearest_solved_step`;
+    the generated step where they hold none of its kind).  A
     step the warm start leaves unaccepted is solved again from the dataset's own initial
     guess (``fallback``).  Returns the refined walk (world frame, on the walk's footsteps)
     and per step its iterations, convergence, cost, wall time, warm start (``guess``) and
