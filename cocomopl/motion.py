@@ -138,6 +138,8 @@ class StepSpec:
 
 
 SAMPLED = ("q", "v", "tau", "wrenches", "contact", "zmp")  # a Motion's arrays with a row per sample, besides t
+# s: a time this close to a knot or a phase edge is at it (float sums and linspace round, 0.4 s lands at 0.39999...)
+TIME_TOLERANCE = 1e-9
 
 
 @dataclass

@@ -23,12 +23,11 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.dynamics import SIDES
-from cocomopl.motion import Motion
+from cocomopl.motion import TIME_TOLERANCE, Motion
 from cocomopl.robot import Robot
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, low_passed
 
 CONTROL_DT = 0.005  # s, HRP-2's control cycle
-KNOT_TOLERANCE = 1e-9  # s: a grid time this close to a knot is at it (the grid is a float sum)
 
 
 @dataclass(frozen=True)
@@ -81,7 +80,7 @@ def _interpolate_segments(motion: Motion, grid: np.ndarray, values: np.ndarray) 
     for first, end in pairwise(edges):
         t = motion.t[first:end]
         last_segment = end == motion.n
-        inside = (grid >= t[0] - KNOT_TOLERANCE) & ((grid <= t[-1] + KNOT_TOLERANCE) if last_segment else (grid < t[-1] - KNOT_TOLERANCE))
+        inside = (grid >= t[0] - TIME_TOLERANCE) & ((grid <= t[-1] + TIME_TOLERANCE) if last_segment else (grid < t[-1] - TIME_TOLERANCE))
         if inside.any():
             out[inside] = _interpolate(t, grid[inside], values[first:end])
     return out
@@ -89,7 +88,7 @@ def _interpolate_segments(motion: Motion, grid: np.ndarray, values: np.ndarray) 
 
 def _hold(t: np.ndarray, grid: np.ndarray, values: np.ndarray) -> np.ndarray:
     """``values`` at the knots ``t``, each held until the next knot (zero-order hold)."""
-    return values[np.searchsorted(t, grid + KNOT_TOLERANCE, side="right") - 1]
+    return values[np.searchsorted(t, grid + TIME_TOLERANCE, side="right") - 1]
 
 
 def configurations(robot: Robot, waist: np.ndarray, waist_rpy: np.ndarray, joints: np.ndarray) -> np.ndarray:
@@ -130,7 +129,7 @@ def resample(robot: Robot, motion: Motion, dt: float = CONTROL_DT, cutoff: float
     """``motion`` every ``dt`` seconds from its first to its last knot, for ``robot``."""
     keep = motion.kept_samples()
     t = motion.t[keep]
-    grid = np.arange(t[0], t[-1] + KNOT_TOLERANCE, dt)
+    grid = np.arange(t[0], t[-1] + TIME_TOLERANCE, dt)
     q = motion.q[keep]
     rpy = np.unwrap([pin.rpy.matrixToRpy(pin.Quaternion(x[6], x[3], x[4], x[5]).toRotationMatrix()) for x in q], axis=0)
     pose = low_passed(_interpolate(t, grid, np.column_stack([q[:, :3], rpy, q[:, 7:]])), dt, cutoff)

@@ -17,14 +17,13 @@ from scipy.interpolate import CubicSpline
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
 from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan, sole_poses
 from cocomopl.kinematics import flat_placement
-from cocomopl.motion import SAMPLED, Motion
+from cocomopl.motion import SAMPLED, TIME_TOLERANCE, Motion
 from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
 from cocomopl.synthesis.upper_body_limits import limit_upper_body
 
 REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
-EDGE_TOLERANCE = 1e-9  # s: a sample this close to a phase edge is at it (linspace rounds, 0.4 lands at 0.39999...)
 
 
 
@@ -62,7 +61,7 @@ def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray
         t = np.linspace(t0, t1, n + 1)
         ts.append(t)
         values.append(spline(np.interp(t, edges, step.boundaries)))
-        phases.append(np.clip(np.searchsorted(edges, t + EDGE_TOLERANCE, side="right") - 1, first, last))
+        phases.append(np.clip(np.searchsorted(edges, t + TIME_TOLERANCE, side="right") - 1, first, last))
     return np.concatenate(ts), np.concatenate(values), np.concatenate(phases)
 
 
