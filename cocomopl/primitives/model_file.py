@@ -589,12 +589,13 @@ def _check_predictions(model: MovementPrimitives, types: list[str], counts: np.n
             continue
         for z in lengths[g, : counts[g]]:
             spec = with_step_lengths(_trajectories()[t].spec, z)
-            with np.errstate(all="ignore"):  # what overflows is refused below
+            # what overflows is refused by the checks; a step's values are computed when first read
+            with np.errstate(all="ignore"):
                 step = model.predict(spec)
                 if spec.kind != "start":
                     _check_predicted(step, model.signal_names)
                     step = model.predict(spec, step.values[0])
-            _check_predicted(step, model.signal_names)
+                _check_predicted(step, model.signal_names)
 
 
 def _check_predicted(step: PredictedStep, signal_names: list[str]) -> None:
