@@ -36,7 +36,7 @@ from tqdm import tqdm
 from random_walks import random_lengths
 
 from cocomopl.gait import M_GEN_MM
-from cocomopl.ocp.refine import WARM_STARTS
+from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS
 
 SEED = 5
 
@@ -94,7 +94,7 @@ def main() -> int:
     parser.add_argument("--n", type=int, default=20, help="random sequences besides M_gen (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=SEED)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--warm-start", default="generated", choices=WARM_STARTS,
+    parser.add_argument("--warm-start", default=DEFAULT_WARM_START, choices=WARM_STARTS,
                         help="what each step's OCP starts from (default: %(default)s)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from cocomopl.errors import Error
+from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS
 from cocomopl.provenance import command_line
 
 
@@ -212,8 +213,8 @@ def _note_replacing(*paths: str | Path, inputs=(), folder: bool = False, given: 
             _warn(note)
 
 
-WARM_START_HELP = ("what each step's OCP starts from: 'generated' (the generated step, the default) or 'nearest' "
-                   "(the dataset's solved step of the same kind nearest it; docs/method.md#refinement)")
+WARM_START_HELP = ("what each step's OCP starts from: 'nearest' (the dataset's solved step of the same kind nearest "
+                   "it, the default) or 'generated' (the generated step; docs/method.md#refinement)")
 METRIC_ROWS = (
     ("fell", "fell", "{}"),
     ("peak_force_over_weight", "peak vertical force / weight", "{:.2f}"),
@@ -377,7 +378,7 @@ def cmd_generate(args) -> int:
     request = _walk_request(args)
     payload = generate_walk_file(request.pop("lengths"), args.out, args.model, args.dt, args.first_swing, args.strict,
                                  args.command_line, args.refine, args.data, progress=not args.json,
-                                 warm_start_from=args.warm_start or "generated", **request)
+                                 warm_start_from=args.warm_start or DEFAULT_WARM_START, **request)
     for message in payload["warnings"]:
         _warn(message)
     rows = payload["steps"]
@@ -406,8 +407,6 @@ def _check_refine_options(args) -> None:
 
 def _check_warm_start(name: str | None) -> None:
     """Refuse an unknown ``--warm-start`` before any work is done."""
-    from cocomopl.ocp.refine import WARM_STARTS
-
     if name is not None and name not in WARM_STARTS:
         raise Error(f"--warm-start {name!r} is not one of {', '.join(WARM_STARTS)}")
 
@@ -462,7 +461,7 @@ def cmd_walk(args) -> int:
     payload = walk_report(request.pop("lengths"), out, args.model, _sim_settings(args), video=not args.no_video,
                           progress=not args.json, dt=args.dt, first_swing=args.first_swing, strict=args.strict,
                           command=args.command_line, refine_steps=args.refine, dataset=args.data, recover=args.recover,
-                          reaim=args.reaim, warm_start_from=args.warm_start or "generated",
+                          reaim=args.reaim, warm_start_from=args.warm_start or DEFAULT_WARM_START,
                           **request)
     for message in payload["warnings"]:
         _warn(message)
@@ -773,7 +772,7 @@ def _primitives_parsers(sub) -> None:
     refine.add_argument("--data", metavar="DATASET.h5",
                         help="OC dataset whose OCP settings the steps are solved with (default: the bundled one)")
     refine.add_argument("--out", metavar="FILE.h5", help="refined motion HDF5 (default: <file>-refined.h5)")
-    refine.add_argument("--warm-start", default="generated", metavar="FROM", help=WARM_START_HELP)
+    refine.add_argument("--warm-start", default=DEFAULT_WARM_START, metavar="FROM", help=WARM_START_HELP)
     _json_option(refine)
     refine.set_defaults(func=cmd_refine)
 

@@ -30,6 +30,7 @@ from cocomopl.motion_file import (
     report_folder,
     write_motions,
 )
+from cocomopl.ocp.settings import DEFAULT_WARM_START
 from cocomopl.provenance import file_identity, stamp
 from cocomopl.robot import DEFAULT_ROBOT
 
@@ -386,7 +387,7 @@ def generate_walk_file(
     progress: bool = False,
     landings=None,
     goal=None,
-    warm_start_from: str = "generated",
+    warm_start_from: str = DEFAULT_WARM_START,
 ) -> dict:
     """Generate a walk with the primitives and write it as one motion to ``out`` (HDF5); with
     ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one
@@ -432,7 +433,7 @@ def refine_walk_file(
     dataset: str | Path | None = None,
     command: str | None = None,
     progress: bool = False,
-    warm_start_from: str = "generated",
+    warm_start_from: str = DEFAULT_WARM_START,
 ) -> dict:
     """Refine a generated walk of a file by the OCPs of ``dataset`` (default: the bundled one,
     the omnidirectional one for a walk that turns or side-steps), each warm-started as

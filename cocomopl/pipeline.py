@@ -25,6 +25,7 @@ from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, M_OPT, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion, StepSpec
+from cocomopl.ocp.settings import DEFAULT_WARM_START
 from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
 from cocomopl.planning.goal import plan_through
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
@@ -217,7 +218,7 @@ def generate_walk(
 
 
 def refine(motion: Motion, dataset_path: str | Path | None = None, progress: bool = False,
-           warm_start_from: str = "generated"):
+           warm_start_from: str = DEFAULT_WARM_START):
     """Refine a generated walk by the OCPs of the dataset it was learned from (by default the
     bundled one, the omnidirectional one for a walk that turns or side-steps;
     :func:`cocomopl.ocp.refine.refine_walk`), each warm-started from the generated step or,
@@ -342,7 +343,7 @@ def walk_report(
     goal: Goal | Sequence[Goal] | None = None,
     recover: bool = False,
     reaim: bool | None = None,
-    warm_start_from: str = "generated",
+    warm_start_from: str = DEFAULT_WARM_START,
 ) -> dict:
     """The main job: generate a walk, simulate it, and write a report folder.
 

@@ -205,6 +205,32 @@ def test_a_step_ending_at_a_trained_length_is_held_to_the_datasets_gait_state(ro
     np.testing.assert_array_equal(free.x_target, still_soles(robot, start.states[-1]))
 
 
+def test_a_gait_state_between_trained_footsteps_is_interpolated_on_their_grid(robot, bundled_steps):
+    """Between two trained lengths the gait state is their geodesic blend with still soles;
+    a trained length gives its own state; outside the grid, or with a corner of its cell
+    missing, there is none (the generated junction is the target then)."""
+    from cocomopl.ocp.refine import gait_state
+
+    gaits = {m.steps[0].start_length: np.concatenate([m.q[0], m.v[0]]) for m in bundled_steps.values()
+             if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
+    nq = robot.model.nq
+    assert gait_state(robot, gaits, 0.25) is gaits[0.25]
+    between = gait_state(robot, gaits, 0.2625)
+    np.testing.assert_allclose(between[:nq], pin.interpolate(robot.model, gaits[0.25][:nq], gaits[0.3][:nq], 0.25),
+                               atol=1e-12)
+    data = robot.model.createData()
+    pin.computeJointJacobians(robot.model, data, between[:nq])
+    pin.updateFramePlacements(robot.model, data)
+    for frame in robot.foot_frames.values():
+        assert np.abs(pin.getFrameJacobian(robot.model, data, frame, pin.LOCAL) @ between[nq:]).max() < 1e-9
+    assert gait_state(robot, gaits, 0.45) is None and gait_state(robot, gaits, 0.1) is None
+    # a grid of whole footsteps (length, width, turn): multilinear, one cell's corners needed
+    grid = {(length, width, 0.0): gaits[length] for length in (0.25, 0.3) for width in (0.0, 0.1)}
+    np.testing.assert_allclose(gait_state(robot, grid, (0.2625, 0.03, 0.0)), between, atol=1e-12)
+    del grid[(0.3, 0.1, 0.0)]
+    assert gait_state(robot, grid, (0.2625, 0.03, 0.0)) is None
+
+
 def test_a_turning_walk_is_refined_on_its_own_footsteps(robot):
     """Each step's guess is turned into its stance sole's frame and the refined steps are
     turned back: the refined walk obeys the dynamics and ends on the generated walk's feet."""

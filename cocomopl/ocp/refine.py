@@ -55,7 +55,7 @@ from cocomopl.ocp.problems import (
     turn_state,
     walk_phases,
 )
-from cocomopl.ocp.settings import OCPSettings
+from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS, OCPSettings
 from cocomopl.ocp.solve import (
     Controls,
     Solution,
@@ -71,8 +71,6 @@ START_BLEND_S = 0.4  # s over which a warm start moves from its pinned start ont
 FEASIBLE = 1e-6  # largest dynamic gap of a converged solution (the dataset's)
 WINDOW = 5  # iterations over which a stalled solver's cost must settle
 DAMPED = 100.0  # regularisation, in multiples of its least, above which a backward pass is too damped to test
-# what each step's OCP is warm-started from: the generated step, or the dataset's solved step nearest it
-WARM_STARTS = ("generated", "nearest")
 
 
 @dataclass
@@ -266,17 +264,71 @@ def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settin
     (``None``: those holding the start) and end target: at rest after a stop, the gait state of
     the step's end footstep where ``gait_states`` has it (the dataset's cyclic start states
     ``S``, by :attr:`~cocomopl.motion.Footstep.gait_key`, as the dataset's own steps are held
-    to), else the generated junction."""
+    to) or can interpolate it (:func:`gait_state`), else the generated junction."""
     phases = _phases(guess.spec, guess.durations, robot, settings)
     x0 = resting_state(robot) if x0 is None else x0
-    end = guess.spec.end_footstep.gait_key
+    gait = gait_state(robot, gait_states or {}, guess.spec.end_footstep.gait_key)
     if guess.spec.kind == "stop":
         target = resting_at_the_end(robot, phases)
-    elif gait_states and end in gait_states:
-        target = next_step_state(robot, gait_states[end], landing_point(phases), landing_yaw(phases))
+    elif gait is not None:
+        target = next_step_state(robot, gait, landing_point(phases), landing_yaw(phases))
     else:
         target = still_soles(robot, guess.states[-1])
     return StepPlan(guess.spec, phases, x0, target, tau0)
+
+
+def gait_state(robot: Robot, gait_states: dict, key: float | tuple) -> np.ndarray | None:
+    """The gait state ``S`` of the footstep ``key`` (:attr:`~cocomopl.motion.Footstep.gait_key`):
+    ``gait_states[key]`` where the dataset has it, else interpolated multilinearly between the
+    gait states at the corners of the dataset's grid cell around ``key`` (configurations on
+    the manifold, velocities linearly, the soles' velocity then projected out); ``None`` where
+    ``key`` lies outside the grid or a corner is missing.
+
+    An OC gait state is a consistent end for a step between trained footsteps: held instead
+    to the generated junction, a step's optimum lies away from every solved step, and
+    refinement from the nearest solved step took a median 4-6 iterations on seed-11 walks
+    instead of 3-4 (docs/experiments/bumps-and-refinement-leads.md, session 36).
+    """
+    if key in gait_states:
+        return gait_states[key]
+    point = _coordinates(key)
+    grid = {_coordinates(k): x for k, x in gait_states.items() if len(_coordinates(k)) == len(point)}
+    brackets = []
+    for axis, value in enumerate(point):
+        levels = np.unique([k[axis] for k in grid])
+        exact = levels[np.isclose(levels, value, rtol=0.0, atol=1e-9)]
+        if exact.size:
+            brackets.append([(float(exact[0]), 1.0)])
+            continue
+        if not grid or not levels[0] < value < levels[-1]:
+            return None
+        high = int(np.searchsorted(levels, value))
+        share = (value - levels[high - 1]) / (levels[high] - levels[high - 1])
+        brackets.append([(float(levels[high - 1]), 1.0 - share), (float(levels[high]), share)])
+    state = _interpolated(robot, grid, brackets, ())
+    if state is None or all(len(b) == 1 for b in brackets):
+        return state
+    return still_soles(robot, state)
+
+
+def _coordinates(key: float | tuple) -> tuple[float, ...]:
+    return tuple(float(c) for c in np.atleast_1d(key))
+
+
+def _interpolated(robot: Robot, grid: dict, brackets: list, corner: tuple) -> np.ndarray | None:
+    """The states of ``grid`` at the corners of ``brackets`` (per axis, the grid values and
+    their weights) combined axis by axis, configurations along the manifold's geodesics;
+    ``None`` if a corner is missing."""
+    if len(corner) == len(brackets):
+        return grid.get(corner)
+    states = [_interpolated(robot, grid, brackets, (*corner, value)) for value, _ in brackets[len(corner)]]
+    if any(x is None for x in states):
+        return None
+    if len(states) == 1:
+        return states[0]
+    (a, b), share, nq = states, brackets[len(corner)][1][1], robot.model.nq
+    q = pin.interpolate(robot.model, a[:nq], b[:nq], share)
+    return np.concatenate([q, (1.0 - share) * a[nq:] + share * b[nq:]])
 
 
 def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
@@ -425,11 +477,13 @@ def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int 
 
 
 __all__ = [
+    "DEFAULT_WARM_START",
     "WARM_STARTS",
     "RefinedWalk",
     "best_expected_decrease",
     "check_refinable",
     "cold_solve",
+    "gait_state",
     "nearest_solved_step",
     "refine_walk",
     "solve_warm",
