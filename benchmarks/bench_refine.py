@@ -42,7 +42,7 @@ from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS
 SEED = 5
 
 
-def run_one(lengths_mm: list[float], warm_start_from: str = "generated") -> dict:
+def run_one(lengths_mm: list[float], warm_start_from: str = DEFAULT_WARM_START) -> dict:
     from cocomopl.data import BUNDLED_DATASET
     from cocomopl.motion_file import read_motions
     from cocomopl.ocp.refine import cold_solve, torque_cost

@@ -269,10 +269,10 @@ def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settin
     to) or can interpolate it (:func:`gait_state`), else the generated junction."""
     phases = _phases(guess.spec, guess.durations, robot, settings)
     x0 = resting_state(robot) if x0 is None else x0
-    gait = gait_state(robot, gait_states or {}, guess.spec.end_footstep.gait_key)
     if guess.spec.kind == "stop":
-        target = resting_at_the_end(robot, phases)
-    elif gait is not None:
+        return StepPlan(guess.spec, phases, x0, resting_at_the_end(robot, phases), tau0)
+    gait = gait_state(robot, gait_states or {}, guess.spec.end_footstep.gait_key)
+    if gait is not None:
         target = next_step_state(robot, gait, landing_point(phases), landing_yaw(phases))
     else:
         target = still_soles(robot, guess.states[-1])
