@@ -45,6 +45,16 @@ def test_zmp_stays_in_the_support_polygon(robot, motions):
         assert check_motion(robot, m, SMALL.friction)["zmp_margin"] >= 0.0, name
 
 
+def test_a_diverged_motion_fails_the_zmp_check_instead_of_raising(robot, motions):
+    """A solve that diverges throws the robot kilometres away, where the soles' hull loses
+    all precision: its ZMP margin is -inf (failed), so the step is rejected, not crashed on."""
+    m = copy.deepcopy(next(iter(motions.values())))
+    m.q[:, :2] += 1e15
+    report = check_motion(robot, m, SMALL.friction)
+    assert report["zmp_margin"] == -np.inf
+    assert "zmp_margin" in violations(report, TOLERANCES)
+
+
 def test_limits_friction_and_unilateral_forces(robot, motions):
     for name, m in motions.items():
         r = check_motion(robot, m, SMALL.friction)

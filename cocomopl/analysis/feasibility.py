@@ -67,14 +67,20 @@ def zmp_margins(robot: Robot, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
     interval of the motion (a touchdown's pre-impact sample starts none).
 
     Returns the intervals' first samples and their margins; NaN where no sole is in contact
-    or the ZMP is undefined.
+    or the ZMP is undefined, and -inf where the soles span no polygon (a diverged solve
+    throws them kilometres away, where the hull loses all precision).
     """
+    from scipy.spatial import QhullError
+
     intervals = np.array([k for k in range(motion.n - 1) if motion.t[k + 1] > motion.t[k]])
     zmp = zmp_from_wrenches(sole_placements(robot, motion.q[intervals]), motion.wrenches[intervals])
     margins = np.full(len(intervals), np.nan)
     for i, k in enumerate(intervals):
         if motion.contact[k].any() and np.all(np.isfinite(zmp[i, :2])):
-            margins[i] = polygon_margin(support_polygon(robot, motion.q[k], motion.contact[k]), zmp[i, :2])
+            try:
+                margins[i] = polygon_margin(support_polygon(robot, motion.q[k], motion.contact[k]), zmp[i, :2])
+            except (QhullError, ValueError):
+                margins[i] = -np.inf
     return intervals, margins
 
 
