@@ -22,8 +22,9 @@ run one iteration at a time so that the iterations are counted exactly and the
 regularisation carries over.  A step has converged when, with no dynamic gap left, no step
 along the solver's direction from where it stands is expected to lower the cost by more than
 the dataset's relative tolerance (the model of the solver's own backward pass,
-:func:`best_expected_decrease`, so a guess that is already optimal is confirmed in two
-iterations), or, where the line
+:func:`best_expected_decrease`, tested at the point its backward pass was made, so a feasible
+guess that is already optimal is confirmed in one iteration and an infeasible one in two),
+or, where the line
 search stalls, when its cost has changed by less than that over the last ``WINDOW``
 iterations; and it passes the checks the dataset accepts its steps by (a cost test alone
 once accepted a step stopped at 84 times the cost from another start).
@@ -44,7 +45,7 @@ from tqdm import tqdm
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, foot_separation, footsteps
 from cocomopl.kinematics import double_support_posture
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.ocp.chained_steps import concatenate, place
 from cocomopl.ocp.contact_controls import inverse_dynamics_controls
 from cocomopl.ocp.problems import (
@@ -70,6 +71,9 @@ from cocomopl.ocp.solve import (
 from cocomopl.robot import Robot, mirror_joints, mirror_motion, mirror_state
 
 START_BLEND_S = 0.4  # s over which a warm start moves from its pinned start onto the generated step
+# the same for a solved step, whose states are dynamically consistent: tuned on seed-11 walks
+# (docs/experiments/bumps-and-refinement-leads.md, session 37)
+NEAREST_START_BLEND_S = 0.25
 FEASIBLE = 1e-6  # largest dynamic gap of a converged solution (the dataset's)
 WINDOW = 5  # iterations over which a stalled solver's cost must settle
 DAMPED = 100.0  # regularisation, in multiples of its least, above which a backward pass is too damped to test
@@ -117,17 +121,22 @@ def walk_guess(robot: Robot, walk: Motion) -> StepGuess:
 
 
 def nearest_solved_step(robot: Robot, spec: StepSpec, solved: dict[str, Motion]) -> Motion | None:
-    """The solved step (a dataset's motion) of ``spec``'s kind and swinging foot whose
-    footsteps lie nearest ``spec``'s: summed differences of length and width (m) and of
-    turn, weighted by the sole's front length (how far a turn moves the toe, m/rad).
-    ``None`` where ``solved`` holds no step of that kind."""
-    def distance(other: StepSpec) -> float:
-        pairs = zip((spec.start_footstep, spec.end_footstep), (other.start_footstep, other.end_footstep))
-        return sum(abs(a.length - b.length) + abs(a.width - b.width) + robot.sole.front * abs(a.turn - b.turn)
-                   for a, b in pairs)
+    """The solved step (a dataset's motion) of ``spec``'s kind and swinging foot whose start
+    footstep lies nearest ``spec``'s, and of those the one whose end footstep does: distances
+    summed over length and width (m) and turn, weighted by the sole's front length (how far
+    a turn moves the toe, m/rad).  ``None`` where ``solved`` holds no step of that kind.
+
+    The start comes first because both soles stand on it in the first double support, where
+    the guess's states are faded onto the pinned start: a rear sole that slides there opens
+    dynamic gaps under the stiff contacts, while an end that differs only costs (on seed-11
+    walks, 98 of 144 steps in 3 iterations or fewer against 88 with the two summed;
+    docs/experiments/bumps-and-refinement-leads.md, session 37)."""
+    def distance(a: Footstep, b: Footstep) -> float:
+        return abs(a.length - b.length) + abs(a.width - b.width) + robot.sole.front * abs(a.turn - b.turn)
     alike = [m for m in solved.values() if len(m.steps) == 1
              and (m.steps[0].kind, m.steps[0].swing_side) == (spec.kind, spec.swing_side)]
-    return min(alike, key=lambda m: distance(m.steps[0]), default=None)
+    return min(alike, default=None, key=lambda m: (distance(spec.start_footstep, m.steps[0].start_footstep),
+                                                   distance(spec.end_footstep, m.steps[0].end_footstep)))
 
 
 def solved_step_guess(robot: Robot, step: Motion) -> StepGuess:
@@ -196,13 +205,13 @@ def _resample(guess: StepGuess, values: np.ndarray, t: float, segment: int) -> n
 
 
 def warm_start(robot: Robot, guess: StepGuess, phases: list, x0: np.ndarray,
-               dt: float) -> tuple[list[np.ndarray], list[np.ndarray]]:
+               dt: float, fade_s: float = START_BLEND_S) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The generated step on the problem's knots: states and the walk's own torques.
 
     Each impact-free segment of the problem is mapped linearly in time onto the same
     segment of the generated step, so rounding a phase to whole knots shifts nothing.  The
     states begin at ``x0``: where that differs from the generated start, the difference
-    fades out over the first :data:`START_BLEND_S` (:func:`_starting_at`).
+    fades out over the first ``fade_s`` (:func:`_starting_at`).
     """
     t, segment = _knot_times(phases, dt)
     if segment[-1] != guess.segment[-1]:
@@ -217,7 +226,7 @@ def warm_start(robot: Robot, guess: StepGuess, phases: list, x0: np.ndarray,
     xs = [_resample(guess, guess.states, scaled[k], segment[k]) for k in range(len(t))]
     for x in xs:
         x[3:7] /= np.linalg.norm(x[3:7])
-    xs = _starting_at(robot, xs, x0, t, START_BLEND_S)
+    xs = _starting_at(robot, xs, x0, t, fade_s)
     us = [
         _resample(guess, guess.torques, scaled[k], segment[k]) if segment[k + 1] == segment[k] else np.zeros(0)
         for k in range(len(t) - 1)
@@ -343,11 +352,14 @@ def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
         args = (xs, us, 1, feasible) if regularisation is None else (xs, us, 1, feasible, regularisation)
         # the test below is the undamped Newton model's: a heavily regularised backward pass
         # (after rejected steps) expects little of any step, wherever it stands
-        testable = bool(costs) and solver.ffeas < FEASIBLE and regularisation <= DAMPED * solver.reg_min
+        undamped = regularisation is None or regularisation <= DAMPED * solver.reg_min
         solver.solve(*args)
-        # from this iteration's backward pass, i.e. at the point the previous one reached
+        # from this iteration's backward pass, i.e. at the point the previous one reached (or
+        # the guess): its gap (ffeas, computed there) and its cost (on the first iteration,
+        # the cost after the step, no more than the guess's from a feasible guess)
         expected = best_expected_decrease(*solver.d)
-        confirmed = testable and expected < tolerance * max(1.0, abs(costs[-1]))
+        scale = max(1.0, abs(costs[-1] if costs else solver.cost))
+        confirmed = undamped and solver.ffeas < FEASIBLE and expected < tolerance * scale
         xs, us = list(solver.xs), list(solver.us)
         regularisation, feasible = solver.preg, solver.isFeasible
         costs.append(float(solver.cost))
@@ -432,8 +444,9 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
         plan = step_plan_from(robot, guess, x0, settings, tau0, gait_states)
         plans.append(plan)
         nearest = nearest_solved_step(robot, guess.spec, solved) if warm_start_from == "nearest" else None
-        start_from = guess if nearest is None else solved_step_guess(robot, nearest)
-        xs, _ = warm_start(robot, start_from, plan.phases, plan.x0, settings.dt)
+        start_from, fade_s = ((guess, START_BLEND_S) if nearest is None
+                              else (solved_step_guess(robot, nearest), NEAREST_START_BLEND_S))
+        xs, _ = warm_start(robot, start_from, plan.phases, plan.x0, settings.dt, fade_s)
         solution = solve_warm(robot, plan, settings, xs, partial(inverse_dynamics_controls, robot))
         if not solution.stats["converged"]:
             solution = _fall_back(robot, plan, settings, solution)
