@@ -6,11 +6,14 @@ same OCP -- same start, same end target, same settings and stopping test -- is s
 from the dataset's own initial guess (feet on their paths by inverse kinematics: "cold").
 Per step: iterations, wall time and final cost, warm and cold, and whether each converged.
 
-    python benchmarks/bench_refine.py [--n 20] [--seed 5] [--workers 2] [--warm-start generated] [--json]
+    python benchmarks/bench_refine.py [--n 20] [--seed 5] [--workers 2] [--warm-start nearest|generated] [--json]
 
-Each step is warm-started as ``cocomopl refine`` does by default, from the dataset's nearest
-solved step (``cocomopl.ocp.refine.nearest_solved_step``); ``--warm-start generated`` starts
-it from the generated step instead.  The cold solves are the same.
+Each step is warm-started as ``cocomopl refine`` does by default, from the dataset's solved
+steps around it, interpolated (``cocomopl.ocp.refine.guess_states``), and its first step at
+the first knot is solved exactly (``cocomopl.ocp.first_knot``). ``--warm-start nearest``
+starts it from the nearest solved step; ``--warm-start generated`` from the generated step,
+with box-FDDP's own first step, as the cold solves take. The cold solves are the same in
+every run.
 
 Seed 5 is used by no other benchmark.  Keys: ``iterations_median``, ``iterations_p95``,
 ``cold_iterations_median``, ``cost_ratio_to_cold_median``, ``cost_ratio_to_cold_max``

@@ -213,8 +213,10 @@ def _note_replacing(*paths: str | Path, inputs=(), folder: bool = False, given: 
             _warn(note)
 
 
-WARM_START_HELP = ("what each step's OCP starts from: 'nearest' (the dataset's solved step of the same kind nearest "
-                   "it, the default) or 'generated' (the generated step; docs/method.md#refinement)")
+WARM_START_HELP = ("what each step's OCP starts from: 'interpolated' (the dataset's solved steps around it, "
+                   "interpolated; where they do not surround it, the nearest; the default), 'nearest' (the dataset's "
+                   "solved step of the same kind nearest it) or 'generated' (the generated step; "
+                   "docs/method.md#refinement)")
 METRIC_ROWS = (
     ("fell", "fell", "{}"),
     ("peak_force_over_weight", "peak vertical force / weight", "{:.2f}"),

@@ -221,9 +221,10 @@ def refine(motion: Motion, dataset_path: str | Path | None = None, progress: boo
            warm_start_from: str = DEFAULT_WARM_START):
     """Refine a generated walk by the OCPs of the dataset it was learned from (by default the
     bundled one, the omnidirectional one for a walk that turns or side-steps;
-    :func:`cocomopl.ocp.refine.refine_walk`), each warm-started from the dataset's nearest
-    solved step (``warm_start_from="nearest"``, the default) or from the generated step
-    (``"generated"``).
+    :func:`cocomopl.ocp.refine.refine_walk`), each warm-started as ``warm_start_from`` says
+    (:func:`cocomopl.ocp.refine.guess_states`): from the dataset's solved steps around it,
+    interpolated (``"interpolated"``, the default), from the nearest one (``"nearest"``), or
+    from the generated step (``"generated"``).
 
     Returns the :class:`~cocomopl.ocp.refine.RefinedWalk` and its summary: per step the
     solver's ``iterations``, whether it ``converged`` and the ``guess`` it started from,

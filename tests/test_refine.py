@@ -15,6 +15,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
 from cocomopl.ocp.contact_controls import inverse_dynamics_controls
+from cocomopl.ocp.first_knot import _barrier_qp, first_knot_step, full_step
 from cocomopl.ocp.problems import build_problem
 from cocomopl.ocp.refine import (
     best_expected_decrease,
@@ -24,9 +25,10 @@ from cocomopl.ocp.refine import (
     refine_walk,
     solve_warm,
     solved_step_guess,
+    solved_steps_around,
     torque_cost,
 )
-from cocomopl.ocp.solve import step_plan
+from cocomopl.ocp.solve import prepared_problem, step_plan
 from cocomopl.pipeline import generate_walk
 from cocomopl.robot import mirror_joints
 
@@ -253,3 +255,101 @@ def test_a_turning_walk_is_refined_on_its_own_footsteps(robot):
         ended = robot.frame_placement(refined.motion.q[-1], robot.foot_frames[side])
         np.testing.assert_allclose(ended.translation[:2], generated.translation[:2], atol=2e-3)
         np.testing.assert_allclose(ended.rotation, generated.rotation, atol=2e-3)
+
+
+def test_the_first_knots_step_minimises_its_barriers_exactly():
+    """The first knot's step is the minimiser of the quadratic model with each barrier row as
+    the piecewise-quadratic penalty it is, not Gauss-Newton's model, which sees only rows
+    already past their bounds; checked against a general-purpose minimiser."""
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(3)
+    nu, m = 6, 5
+    A = rng.normal(size=(nu, nu))
+    Quu, Qu = A @ A.T + 0.1 * np.eye(nu), rng.normal(size=nu) * 10
+    Ru, r = rng.normal(size=(m, nu)), rng.normal(size=m)
+    lb, ub = r - 1.0, r + 1.0  # every row inside its bounds at the guess: Gauss-Newton sees none
+    lb[0] = -np.inf  # a row open on one side, as the cones' are
+    weights = np.full(m, 50.0)
+    du_lb, du_ub = np.full(nu, -3.0), np.full(nu, 3.0)
+
+    def exact(du):
+        rows = r + Ru @ du
+        past = np.maximum(rows - ub, 0.0) + np.minimum(rows - lb, 0.0)
+        return Qu @ du + 0.5 * du @ Quu @ du + 0.5 * np.sum(weights * past**2)
+
+    step = _barrier_qp(Quu, Qu, Ru, r, lb, ub, weights, du_lb, du_ub)
+    reference = minimize(exact, np.zeros(nu), bounds=list(zip(du_lb, du_ub)), method="L-BFGS-B",
+                         options={"ftol": 1e-15, "gtol": 1e-12, "maxiter": 10000})
+    assert exact(step) <= reference.fun + 1e-7
+    np.testing.assert_allclose(step, reference.x, atol=1e-4)
+    gauss_newton = np.clip(-np.linalg.solve(Quu, Qu), du_lb, du_ub)
+    assert exact(step) < exact(gauss_newton) - 1.0  # the blind step overshoots the rows
+
+
+def test_the_first_full_step_keeps_the_pinned_knots_wrench_at_its_cones(robot, bundled_steps):
+    """The 200 -> 250 mm transition, started from the 200 -> 150 one: at the first knot the sole
+    that has just landed carries little.  Box-FDDP's own full step pushes that knot's wrench
+    past its cone, which its Gauss-Newton model does not see while the guess keeps inside;
+    the exact first-knot step leaves it at most a hair past (the optimum's own margin, set by
+    the barrier's weight), and the full step closes every gap."""
+    from cocomopl.data import BUNDLED_DATASET
+    from cocomopl.ocp.refine import NEAREST_START_BLEND_S, warm_start
+    from cocomopl.ocp.settings import OCPSettings
+
+    settings = OCPSettings.from_saved(read_motions(BUNDLED_DATASET, dataset=True)[1]["settings"])
+    gait = {m.steps[0].start_length: np.concatenate([m.q[0], m.v[0]]) for m in bundled_steps.values()
+            if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
+    plan = step_plan(robot, bundled_steps["transition_200_250_L"].steps[0], gait, settings)
+    guess = solved_step_guess(robot, bundled_steps["transition_200_150_L"])
+    xs = warm_start(robot, guess, plan.phases, plan.x0, settings.dt, NEAREST_START_BLEND_S)[0]
+    _, solver, xs, us = prepared_problem(robot, plan, settings, xs,
+                                         lambda problem, states: inverse_dynamics_controls(robot, problem, states))
+    solver.setCandidate(xs, us, False)
+    solver.computeDirection(True)
+    states, controls, cost = full_step(solver, first_knot_step(solver))
+    ours = _cone_excess(solver)
+    assert np.isfinite(cost) and ours < 0.01
+    for t, (model, data) in enumerate(zip(solver.problem.runningModels, solver.problem.runningDatas)):
+        model.calc(data, states[t], controls[t])
+        np.testing.assert_allclose(data.xnext, states[t + 1], atol=1e-9)
+    solver.tryStep(1.0)
+    assert _cone_excess(solver) > 1.0
+
+
+def _cone_excess(solver) -> float:
+    """How far (N, N m) the first knot's wrench lies past its cones, as the solver's data hold it."""
+    model, data = solver.problem.runningModels[0], solver.problem.runningDatas[0]
+    model, data = getattr(model, "inner", model), getattr(data, "inner", data)
+    worst = 0.0
+    for name, item in model.differential.costs.costs.todict().items():
+        if "wrench_cone" in name:
+            r = np.array(data.differential.costs.costs[name].residual.r)
+            bounds = item.cost.activation.bounds
+            worst = max(worst, float(np.max(np.maximum(r - bounds.ub, 0.0) + np.maximum(bounds.lb - r, 0.0))))
+    return worst
+
+
+def test_the_solved_steps_around_a_step_are_its_grid_cells_corners(robot, bundled_steps):
+    """210 -> 240 mm lies in the cell of the 200 and 250 mm transitions and cyclic steps,
+    weighted 0.8 / 0.2 along the start and 0.2 / 0.8 along the end; a trained step is its own
+    only corner; a cell with a corner missing, a step outside the grid or a turning one has none."""
+    corners, brackets = solved_steps_around(StepSpec("transition", 0.21, 0.24), bundled_steps)
+    assert sorted(m.name for m in corners.values()) == ["cyclic_200_L", "cyclic_250_L", "transition_200_250_L",
+                                                         "transition_250_200_L"]
+    np.testing.assert_allclose([[w for _, w in axis] for axis in brackets], [[0.8, 0.2], [0.2, 0.8]])
+    corners, _ = solved_steps_around(StepSpec("stop", 0.25, 0.0, "right"), bundled_steps)
+    assert [m.name for m in corners.values()] == ["stop_250_R"]
+    assert solved_steps_around(StepSpec("transition", 0.21, 0.29), bundled_steps) is None  # no 200 -> 300
+    assert solved_steps_around(StepSpec("start", 0.0, 0.45), bundled_steps) is None
+    assert solved_steps_around(StepSpec("transition", 0.21, 0.24, end_turn=0.1), bundled_steps) is None
+
+
+def test_a_walk_refined_from_the_interpolated_solved_steps_converges_on_them(robot, walk, small_dataset):
+    motions, _ = read_motions(small_dataset)
+    refined = refine_walk(robot, walk.motion, SMALL, warm_start_from="interpolated", solved=motions)
+    assert [row["converged"] for row in refined.steps] == [True, True]
+    # the walk's steps are at the dataset's one length: each step is its own only corner
+    assert [row["guess"] for row in refined.steps] == ["start_200_L", "stop_200_L"]
+    with pytest.raises(Error, match="needs the dataset's steps"):
+        refine_walk(robot, walk.motion, SMALL, warm_start_from="interpolated")

@@ -2,8 +2,9 @@
 
 Each step of the walk poses the OCP the dataset solves for a step of its kind and lengths
 (:func:`cocomopl.ocp.problems.build_problem`, the dataset's settings), with the walk's phase
-durations, and warm-starts it (:data:`WARM_STARTS`): with the generated joints and pelvis as
-states, or with those of the dataset's solved step nearest it (:func:`nearest_solved_step`);
+durations, and warm-starts it (:data:`WARM_STARTS`, :func:`guess_states`): with the states of
+the dataset's solved steps around it, interpolated (:func:`solved_steps_around`), of the
+solved step nearest it (:func:`nearest_solved_step`), or with the generated joints and pelvis;
 controls by inverse dynamics of those states.  The first step starts at rest, as the dataset's
 start steps do; every later step starts exactly where the previous refined step ended, and
 its torque-rate cost counts from the previous step's last torques.  A step's end is held, as
@@ -19,7 +20,10 @@ The guess's controls are not the walk's own torques: they are recomputed on the 
 knots by inverse dynamics with each knot's contact wrenches split as the OCP's own costs
 split them (:mod:`cocomopl.ocp.contact_controls`).  The solver is the dataset's (box-FDDP),
 run one iteration at a time so that the iterations are counted exactly and the
-regularisation carries over.  A step has converged when, with no dynamic gap left, no step
+regularisation carries over.  From a solved step's guess, its first step is box-FDDP's but
+at the first knot, whose state is pinned: there the control's step is solved exactly against
+the knot's wrench cones (:mod:`cocomopl.ocp.first_knot`), which the solver's Gauss-Newton
+model does not see while the guess keeps inside them.  A step has converged when, with no dynamic gap left, no step
 along the solver's direction from where it stands is expected to lower the cost by more than
 the dataset's relative tolerance (the model of the solver's own backward pass,
 :func:`best_expected_decrease`, tested at the point its backward pass was made, so a feasible
@@ -34,6 +38,7 @@ cost over 25 iterations, which would hide any saving of a warm start below 25.
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 from functools import partial
@@ -48,6 +53,7 @@ from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.ocp.chained_steps import concatenate, place
 from cocomopl.ocp.contact_controls import inverse_dynamics_controls
+from cocomopl.ocp.first_knot import first_knot_step, full_step
 from cocomopl.ocp.problems import (
     StepPlan,
     initial_guess,
@@ -137,6 +143,31 @@ def nearest_solved_step(robot: Robot, spec: StepSpec, solved: dict[str, Motion])
              and (m.steps[0].kind, m.steps[0].swing_side) == (spec.kind, spec.swing_side)]
     return min(alike, default=None, key=lambda m: (distance(spec.start_footstep, m.steps[0].start_footstep),
                                                    distance(spec.end_footstep, m.steps[0].end_footstep)))
+
+
+def solved_steps_around(spec: StepSpec, solved: dict[str, Motion]) -> tuple[dict[tuple, Motion], list] | None:
+    """The solved steps (a dataset's motions) at the corners of the grid cell around a
+    straight ``spec``'s (start, end) lengths, by corner, and the cell's brackets (per axis the
+    corners' lengths and their weights, as :func:`gait_state` combines them).  Transitions and
+    cyclic steps share one grid: a cyclic step is a transition to its own length.  ``None``
+    where ``spec`` turns or side-steps, lies outside the grid, or a corner is missing.
+
+    Interpolated between the corners, a guess is right at both footsteps, where the nearest
+    solved step is right at one (on seed-11 walks, a median 2 iterations instead of 3;
+    docs/experiments/bumps-and-refinement-leads.md, session 38)."""
+    if not spec.straight:
+        return None
+    kinds = {"transition", "cyclic"} if spec.kind in ("transition", "cyclic") else {spec.kind}
+    grid = {(m.steps[0].start_length, m.steps[0].end_length): m for m in solved.values()
+            if len(m.steps) == 1 and m.steps[0].straight and m.steps[0].kind in kinds
+            and m.steps[0].swing_side == spec.swing_side}
+    brackets = _brackets((spec.start_length, spec.end_length), grid)
+    if brackets is None:
+        return None
+    corners = list(itertools.product(*[[value for value, _ in axis] for axis in brackets]))
+    if any(corner not in grid for corner in corners):
+        return None
+    return {corner: grid[corner] for corner in corners}, brackets
 
 
 def solved_step_guess(robot: Robot, step: Motion) -> StepGuess:
@@ -304,22 +335,31 @@ def gait_state(robot: Robot, gait_states: dict, key: float | tuple) -> np.ndarra
         return gait_states[key]
     point = _coordinates(key)
     grid = {_coordinates(k): x for k, x in gait_states.items() if len(_coordinates(k)) == len(point)}
-    brackets = []
-    for axis, value in enumerate(point):
-        levels = np.unique([k[axis] for k in grid])
-        exact = levels[np.isclose(levels, value, rtol=0.0, atol=1e-9)]
-        if exact.size:
-            brackets.append([(float(exact[0]), 1.0)])
-            continue
-        if not grid or not levels[0] < value < levels[-1]:
-            return None
-        high = int(np.searchsorted(levels, value))
-        share = (value - levels[high - 1]) / (levels[high] - levels[high - 1])
-        brackets.append([(float(levels[high - 1]), 1.0 - share), (float(levels[high]), share)])
+    brackets = _brackets(point, grid)
+    if brackets is None:
+        return None
     state = _interpolated(robot, grid, brackets, ())
     if state is None or all(len(b) == 1 for b in brackets):
         return state
     return still_soles(robot, state)
+
+
+def _brackets(point: tuple[float, ...], keys) -> list | None:
+    """Per axis of ``point``, the values of the grid ``keys`` around it and their weights (one
+    value where the grid has the point's); ``None`` where it lies outside the grid."""
+    brackets = []
+    for axis, value in enumerate(point):
+        levels = np.unique([k[axis] for k in keys])
+        exact = levels[np.isclose(levels, value, rtol=0.0, atol=1e-9)]
+        if exact.size:
+            brackets.append([(float(exact[0]), 1.0)])
+            continue
+        if not levels.size or not levels[0] < value < levels[-1]:
+            return None
+        high = int(np.searchsorted(levels, value))
+        share = (value - levels[high - 1]) / (levels[high] - levels[high - 1])
+        brackets.append([(float(levels[high - 1]), 1.0 - share), (float(levels[high]), share)])
+    return brackets
 
 
 def _coordinates(key: float | tuple) -> tuple[float, ...]:
@@ -342,12 +382,15 @@ def _interpolated(robot: Robot, grid: dict, brackets: list, corner: tuple) -> np
     return np.concatenate([q, (1.0 - share) * a[nq:] + share * b[nq:]])
 
 
-def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
+def iterate(solver, xs: list, us: list, budget: int, tolerance: float, exact_first_knot: bool = False) -> dict:
     """Run ``solver`` one iteration at a time until no step from where it stands is expected
-    to lower the cost by more than ``tolerance`` of it, or the cost has settled (see the module)."""
-    costs, regularisation, feasible = [], None, False
+    to lower the cost by more than ``tolerance`` of it, or the cost has settled (see the module).
+    With ``exact_first_knot``, the first iteration is :func:`_first_iteration`'s."""
     started = time.perf_counter()
-    converged = False
+    costs, regularisation, feasible, converged = [], None, False, False
+    if exact_first_knot:
+        xs, us, cost, feasible, converged = _first_iteration(solver, xs, us, tolerance)
+        costs, regularisation = [cost], solver.preg
     while len(costs) < budget and not converged:
         args = (xs, us, 1, feasible) if regularisation is None else (xs, us, 1, feasible, regularisation)
         # the test below is the undamped Newton model's: a heavily regularised backward pass
@@ -371,6 +414,33 @@ def iterate(solver, xs: list, us: list, budget: int, tolerance: float) -> dict:
             "solve_time_s": time.perf_counter() - started, "costs": costs}
 
 
+def _first_iteration(solver, xs: list, us: list, tolerance: float) -> tuple[list, list, float, bool, bool]:
+    """The first iteration from the guess ``xs``, ``us``: box-FDDP's backward pass there, then,
+    unless that confirms the guess, a full step whose first knot's control is
+    :func:`~cocomopl.ocp.first_knot.first_knot_step`'s (:func:`~cocomopl.ocp.first_knot.full_step`).
+
+    Returns the states, controls, cost, whether they are free of gaps, and whether the guess
+    was confirmed.  Where no such step is taken (the backward pass failed, the knot has no
+    barrier, the rollout diverged, or the step raised the cost of a guess without gaps), the
+    guess is returned and the iterations go on from it as box-FDDP's.
+    """
+    solver.setCandidate(xs, us, False)
+    try:
+        solver.computeDirection(True)
+    except RuntimeError:  # a backward pass that is not positive definite: box-FDDP regularises
+        return xs, us, float(solver.cost), False, False
+    solver.updateExpectedImprovement()
+    expected = best_expected_decrease(*solver.expectedImprovement())
+    cost, feasible = float(solver.cost), solver.ffeas < FEASIBLE
+    if feasible and expected < tolerance * max(1.0, abs(cost)):
+        return xs, us, cost, True, True
+    step = first_knot_step(solver)
+    taken = full_step(solver, step) if step is not None else None
+    if taken is None or (feasible and taken[2] > cost):
+        return xs, us, cost, feasible, False
+    return taken[0], taken[1], float(taken[2]), True, False
+
+
 def best_expected_decrease(d1: float, d2: float) -> float:
     """The largest cost decrease the solver's model expects of a step of length α in (0, 1].
 
@@ -386,13 +456,14 @@ def best_expected_decrease(d1: float, d2: float) -> float:
 
 
 def solve_warm(robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list, us: Controls,
-               budget: int | None = None) -> Solution:
+               budget: int | None = None, exact_first_knot: bool = False) -> Solution:
     """Solve ``plan`` from the states ``xs`` and controls ``us`` (None: quasi-static; a function:
     of the problem and the states, as :func:`~cocomopl.ocp.solve.prepared_problem` takes them), iterating as
-    :func:`iterate` does.  ``converged``: settled and accepted as the dataset accepts a step
+    :func:`iterate` does, its first step at the first knot exact with ``exact_first_knot``.
+    ``converged``: settled and accepted as the dataset accepts a step
     (:func:`~cocomopl.ocp.solve.failed_checks`); ``settled``: the cost test alone."""
     problem, solver, xs, us = prepared_problem(robot, plan, settings, xs, us)
-    stats = iterate(solver, xs, us, budget or settings.max_iterations, settings.tolerance)
+    stats = iterate(solver, xs, us, budget or settings.max_iterations, settings.tolerance, exact_first_knot)
     solution = solution_of(problem, solver, plan, stats)
     # as the dataset accepts a step: settled, and passing the independent checks at its target
     failed, gap = failed_checks(robot, solution, settings)
@@ -416,6 +487,33 @@ def check_refinable(walk: Motion, robot: Robot) -> None:
         raise Error(f"the walk is for robot {walk.robot!r} and the dataset's OCPs for {robot.name!r}")
 
 
+def guess_states(robot: Robot, guess: StepGuess, plan: StepPlan, dt: float, warm_start_from: str,
+                 solved: dict[str, Motion] | None) -> tuple[list[np.ndarray], str]:
+    """The states a step's OCP starts from, on its knots and from its pinned start, and what
+    they came from (the solved steps' names, ``+``-joined, or ``"generated"``).
+
+    ``warm_start_from`` (:data:`WARM_STARTS`): ``"interpolated"``, the ``solved`` steps around
+    the step (:func:`solved_steps_around`), each mapped onto the knots, interpolated between
+    them knot by knot as gait states are; where they do not surround it, or with
+    ``"nearest"``, the nearest solved step (:func:`nearest_solved_step`); where ``solved``
+    holds no step of its kind, or with ``"generated"``, the generated step.
+    """
+    def mapped(step: Motion) -> list[np.ndarray]:
+        return warm_start(robot, solved_step_guess(robot, step), plan.phases, plan.x0, dt, NEAREST_START_BLEND_S)[0]
+
+    around = solved_steps_around(guess.spec, solved) if warm_start_from == "interpolated" else None
+    if around is not None:
+        corners, brackets = around
+        states = {corner: mapped(step) for corner, step in corners.items()}
+        knots = len(next(iter(states.values())))
+        xs = [_interpolated(robot, {c: x[k] for c, x in states.items()}, brackets, ()) for k in range(knots)]
+        return xs, "+".join(step.name for step in corners.values())
+    nearest = nearest_solved_step(robot, guess.spec, solved) if warm_start_from != "generated" else None
+    if nearest is not None:
+        return mapped(nearest), nearest.name
+    return warm_start(robot, guess, plan.phases, plan.x0, dt, START_BLEND_S)[0], "generated"
+
+
 def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: bool = False,
                 gait_states: dict | None = None, warm_start_from: str = "generated",
                 solved: dict[str, Motion] | None = None) -> RefinedWalk:
@@ -423,10 +521,10 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
     OCP it approximates, in order; ``gait_states``: the dataset's gait states ``S`` by
     footstep, end targets where a step ends at one (:func:`step_plan_from`).
 
-    Each OCP is posed by the generated step (its phases, start and end) and warm-started,
-    as ``warm_start_from`` says (:data:`WARM_STARTS`), from the generated step or from the
-    nearest of the ``solved`` steps (the dataset's motions; :func:`nearest_solved_step`;
-    the generated step where they hold none of its kind).  A
+    Each OCP is posed by the generated step (its phases, start and end) and warm-started as
+    ``warm_start_from`` says (:func:`guess_states`) from the ``solved`` steps (the dataset's
+    motions), then with the exact first-knot step (:func:`iterate`), or from the generated
+    step, then with box-FDDP's own first step.  A
     step the warm start leaves unaccepted is solved again from the dataset's own initial
     guess (``fallback``).  Returns the refined walk (world frame, on the walk's footsteps)
     and per step its iterations, convergence, cost, wall time, warm start (``guess``) and
@@ -435,23 +533,23 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
     check_refinable(walk, robot)
     if warm_start_from not in WARM_STARTS:
         raise Error(f"unknown warm start {warm_start_from!r}; choose one of {', '.join(WARM_STARTS)}")
-    if warm_start_from == "nearest" and not solved:
-        raise Error("a warm start from the nearest solved step needs the dataset's steps")
+    if warm_start_from != "generated" and not solved:
+        raise Error(f"a warm start from the {warm_start_from} solved steps needs the dataset's steps")
     started = time.perf_counter()
     feet = footsteps(robot, walk.steps)
     placed, rows, plans, x0, tau0 = [], [], [], None, None
     for k, guess in enumerate(tqdm(step_guesses(robot, walk), desc="refining steps", disable=not progress, leave=False)):
         plan = step_plan_from(robot, guess, x0, settings, tau0, gait_states)
         plans.append(plan)
-        nearest = nearest_solved_step(robot, guess.spec, solved) if warm_start_from == "nearest" else None
-        start_from, fade_s = ((guess, START_BLEND_S) if nearest is None
-                              else (solved_step_guess(robot, nearest), NEAREST_START_BLEND_S))
-        xs, _ = warm_start(robot, start_from, plan.phases, plan.x0, settings.dt, fade_s)
-        solution = solve_warm(robot, plan, settings, xs, partial(inverse_dynamics_controls, robot))
+        xs, started_from = guess_states(robot, guess, plan, settings.dt, warm_start_from, solved)
+        # a full step without a line search suits a solved step's guess, consistent and near
+        # the optimum; from the generated step it took a median 21 iterations instead of 11
+        solution = solve_warm(robot, plan, settings, xs, partial(inverse_dynamics_controls, robot),
+                              exact_first_knot=started_from != "generated")
         if not solution.stats["converged"]:
             solution = _fall_back(robot, plan, settings, solution)
         motion = to_motion(robot, solution, settings)
-        rows.append({"step": walk.steps[k].name, "guess": "generated" if nearest is None else nearest.name,
+        rows.append({"step": walk.steps[k].name, "guess": started_from,
                      **{key: solution.stats[key] for key in ("iterations", "converged", "cost", "solve_time_s", "fallback")}})
         x0, tau0 = _next_start(robot, solution)
         stance = OTHER_SIDE[walk.steps[k].swing_side]
@@ -487,7 +585,8 @@ def _next_start(robot: Robot, solution: Solution) -> tuple[np.ndarray, np.ndarra
 
 def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int | None = None) -> Solution:
     """The same plan from the dataset's own initial guess (feet on their paths by inverse
-    kinematics), iterated as a refinement is."""
+    kinematics), iterated as a refinement from the generated step is: the first step is
+    box-FDDP's own (see :func:`refine_walk`)."""
     return solve_warm(robot, plan, settings, initial_guess(robot, plan.phases, plan.x0, settings), None, budget)
 
 
@@ -499,10 +598,12 @@ __all__ = [
     "check_refinable",
     "cold_solve",
     "gait_state",
+    "guess_states",
     "nearest_solved_step",
     "refine_walk",
     "solve_warm",
     "solved_step_guess",
+    "solved_steps_around",
     "step_guesses",
     "step_plan_from",
     "torque_cost",

@@ -6,11 +6,12 @@ from dataclasses import asdict, dataclass, fields
 
 from cocomopl.errors import Error
 
-# what refinement warm-starts each step's OCP from: the generated step, or the dataset's solved
-# step nearest it; the commands and pipeline.refine take the nearest, which needs fewer
-# iterations and had every step accepted (docs/results.md#refinement)
-WARM_STARTS = ("generated", "nearest")
-DEFAULT_WARM_START = "nearest"
+# what refinement warm-starts each step's OCP from: the generated step, the dataset's solved
+# step nearest it, or the solved steps around it interpolated (the nearest where they do not
+# surround it); the commands and pipeline.refine take the interpolated ones, which need the
+# fewest iterations (docs/results.md#refinement)
+WARM_STARTS = ("generated", "nearest", "interpolated")
+DEFAULT_WARM_START = "interpolated"
 
 
 @dataclass(frozen=True)
