@@ -333,14 +333,20 @@ def _cone_excess(solver) -> float:
 def test_the_solved_steps_around_a_step_are_its_grid_cells_corners(robot, bundled_steps):
     """210 -> 240 mm lies in the cell of the 200 and 250 mm transitions and cyclic steps,
     weighted 0.8 / 0.2 along the start and 0.2 / 0.8 along the end; a trained step is its own
-    only corner; a cell with a corner missing, a step outside the grid or a turning one has none."""
+    only corner; where the cell misses a corner (no 200 -> 300 mm transition), the steps from
+    the nearest solved start around the end; a step outside the grid or a turning one has none."""
     corners, brackets = solved_steps_around(StepSpec("transition", 0.21, 0.24), bundled_steps)
     assert sorted(m.name for m in corners.values()) == ["cyclic_200_L", "cyclic_250_L", "transition_200_250_L",
                                                          "transition_250_200_L"]
     np.testing.assert_allclose([[w for _, w in axis] for axis in brackets], [[0.8, 0.2], [0.2, 0.8]])
     corners, _ = solved_steps_around(StepSpec("stop", 0.25, 0.0, "right"), bundled_steps)
     assert [m.name for m in corners.values()] == ["stop_250_R"]
-    assert solved_steps_around(StepSpec("transition", 0.21, 0.29), bundled_steps) is None  # no 200 -> 300
+    corners, brackets = solved_steps_around(StepSpec("transition", 0.23, 0.27), bundled_steps)
+    assert sorted(m.name for m in corners.values()) == ["cyclic_250_L", "transition_250_300_L"]
+    start, end = ([w for _, w in axis] for axis in brackets)
+    assert start == [1.0] and end == pytest.approx([0.6, 0.4])
+    # from 200 mm no step ends beyond 250
+    assert solved_steps_around(StepSpec("transition", 0.21, 0.29), bundled_steps) is None
     assert solved_steps_around(StepSpec("start", 0.0, 0.45), bundled_steps) is None
     assert solved_steps_around(StepSpec("transition", 0.21, 0.24, end_turn=0.1), bundled_steps) is None
 

@@ -152,6 +152,10 @@ def solved_steps_around(spec: StepSpec, solved: dict[str, Motion]) -> tuple[dict
     cyclic steps share one grid: a cyclic step is a transition to its own length.  ``None``
     where ``spec`` turns or side-steps, lies outside the grid, or a corner is missing.
 
+    Where the cell misses a corner (on the bundled data, transitions more than 100 mm apart),
+    the steps that start at the solved start nearest ``spec``'s, around its end: the start
+    first, as :func:`nearest_solved_step` takes it.
+
     Interpolated between the corners, a guess is right at both footsteps, where the nearest
     solved step is right at one (on seed-11 walks, a median 2 iterations instead of 3;
     docs/experiments/bumps-and-refinement-leads.md, session 38)."""
@@ -161,7 +165,17 @@ def solved_steps_around(spec: StepSpec, solved: dict[str, Motion]) -> tuple[dict
     grid = {(m.steps[0].start_length, m.steps[0].end_length): m for m in solved.values()
             if len(m.steps) == 1 and m.steps[0].straight and m.steps[0].kind in kinds
             and m.steps[0].swing_side == spec.swing_side}
-    brackets = _brackets((spec.start_length, spec.end_length), grid)
+    cell = _cell(grid, (spec.start_length, spec.end_length))
+    if cell is not None or not grid:
+        return cell
+    start = min({key[0] for key in grid}, key=lambda value: abs(value - spec.start_length))
+    return _cell({key: m for key, m in grid.items() if key[0] == start}, (start, spec.end_length))
+
+
+def _cell(grid: dict[tuple, Motion], point: tuple[float, ...]) -> tuple[dict[tuple, Motion], list] | None:
+    """The steps of ``grid`` at the corners of its cell around ``point``, and the cell's
+    brackets; ``None`` where ``point`` lies outside the grid or a corner is missing."""
+    brackets = _brackets(point, grid)
     if brackets is None:
         return None
     corners = list(itertools.product(*[[value for value, _ in axis] for axis in brackets]))
@@ -230,9 +244,17 @@ def _knot_times(phases: list, dt: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _resample(guess: StepGuess, values: np.ndarray, t: float, segment: int) -> np.ndarray:
-    """``values`` of the guess at the same fraction of the same segment as time ``t``."""
+    """``values`` of the guess at the same fraction of the same segment as time ``t``: linear
+    between the segment's samples around ``t`` (its times increase strictly), held at its ends."""
     rows = np.flatnonzero(guess.segment == segment)
-    return np.array([np.interp(t, guess.t[rows], values[rows, j]) for j in range(values.shape[1])])
+    times = guess.t[rows]
+    if t <= times[0]:
+        return values[rows[0]].copy()
+    if t >= times[-1]:
+        return values[rows[-1]].copy()
+    i = int(np.searchsorted(times, t, side="right")) - 1
+    share = (t - times[i]) / (times[i + 1] - times[i])
+    return (1.0 - share) * values[rows[i]] + share * values[rows[i + 1]]
 
 
 def warm_start(robot: Robot, guess: StepGuess, phases: list, x0: np.ndarray,
@@ -527,8 +549,10 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
     step, then with box-FDDP's own first step.  A
     step the warm start leaves unaccepted is solved again from the dataset's own initial
     guess (``fallback``).  Returns the refined walk (world frame, on the walk's footsteps)
-    and per step its iterations, convergence, cost, wall time, warm start (``guess``) and
-    whether it fell back.
+    and per step its iterations, convergence, cost, wall times (``solve_time_s``: the
+    solver's; ``guess_s``: building the guess's states; ``step_s``: the whole step, its
+    problem, controls and acceptance checks too), warm start (``guess``) and whether it fell
+    back.
     """
     check_refinable(walk, robot)
     if warm_start_from not in WARM_STARTS:
@@ -541,16 +565,20 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
     for k, guess in enumerate(tqdm(step_guesses(robot, walk), desc="refining steps", disable=not progress, leave=False)):
         plan = step_plan_from(robot, guess, x0, settings, tau0, gait_states)
         plans.append(plan)
+        step_started = time.perf_counter()
         xs, started_from = guess_states(robot, guess, plan, settings.dt, warm_start_from, solved)
+        guess_s = time.perf_counter() - step_started
         # a full step without a line search suits a solved step's guess, consistent and near
         # the optimum; from the generated step it took a median 21 iterations instead of 11
         solution = solve_warm(robot, plan, settings, xs, partial(inverse_dynamics_controls, robot),
                               exact_first_knot=started_from != "generated")
         if not solution.stats["converged"]:
             solution = _fall_back(robot, plan, settings, solution)
+        solution.stats.update(guess_s=guess_s, step_s=time.perf_counter() - step_started)
         motion = to_motion(robot, solution, settings)
         rows.append({"step": walk.steps[k].name, "guess": started_from,
-                     **{key: solution.stats[key] for key in ("iterations", "converged", "cost", "solve_time_s", "fallback")}})
+                     **{key: solution.stats[key]
+                        for key in ("iterations", "converged", "cost", "solve_time_s", "guess_s", "step_s", "fallback")}})
         x0, tau0 = _next_start(robot, solution)
         stance = OTHER_SIDE[walk.steps[k].swing_side]
         if stance == "left":
@@ -586,8 +614,14 @@ def _next_start(robot: Robot, solution: Solution) -> tuple[np.ndarray, np.ndarra
 def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int | None = None) -> Solution:
     """The same plan from the dataset's own initial guess (feet on their paths by inverse
     kinematics), iterated as a refinement from the generated step is: the first step is
-    box-FDDP's own (see :func:`refine_walk`)."""
-    return solve_warm(robot, plan, settings, initial_guess(robot, plan.phases, plan.x0, settings), None, budget)
+    box-FDDP's own (see :func:`refine_walk`).  Its wall times as :func:`refine_walk` records a
+    step's: ``guess_s`` and ``step_s`` besides the solver's."""
+    started = time.perf_counter()
+    xs = initial_guess(robot, plan.phases, plan.x0, settings)
+    guess_s = time.perf_counter() - started
+    solution = solve_warm(robot, plan, settings, xs, None, budget)
+    solution.stats.update(guess_s=guess_s, step_s=time.perf_counter() - started)
+    return solution
 
 
 __all__ = [
