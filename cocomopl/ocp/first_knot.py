@@ -17,6 +17,10 @@ Here the first step at that knot is the exact minimiser of the solver's own quad
 of the knot. Each of the knot's barrier rows enters as the piecewise-quadratic penalty it is:
 one slack per row in a small QP (ProxQP, as :mod:`cocomopl.ocp.contact_controls` uses). The
 torque limits stay hard bounds. Every other knot takes box-FDDP's step.
+
+The step is a full one, without a line search, so :func:`cocomopl.ocp.refine.refine_walk`
+takes it only from a solved step's guess, which is consistent and near the optimum. From the
+generated step it took a median 21 iterations instead of 11.
 """
 
 from __future__ import annotations
