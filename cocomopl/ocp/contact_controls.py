@@ -21,6 +21,7 @@ from proxsuite import proxqp
 from cocomopl.robot import Robot
 
 REGULARISATION = 1e-8  # on the wrenches, so that the QP stays strictly convex
+OPEN = 1e20  # an open side of a bound (the cones' open sides), as a finite number ProxQP accepts
 
 
 def inverse_dynamics_controls(robot: Robot, problem: crocoddyl.ShootingProblem, xs: list[np.ndarray]) -> list[np.ndarray]:
@@ -72,9 +73,8 @@ def _split(J: np.ndarray, rhs: np.ndarray, costs: dict, sides: list[str]) -> np.
         upper.append(cone.activation.bounds.ub)
     C = np.vstack(cones)
     qp = proxqp.dense.QP(n, 6, C.shape[0])
-    bound = 1e20  # the cones' open sides, as a finite number ProxQP accepts
-    qp.init(H, g, J[:, :6].T, rhs[:6], C, np.maximum(np.concatenate(lower), -bound),
-            np.minimum(np.concatenate(upper), bound))
+    qp.init(H, g, J[:, :6].T, rhs[:6], C, np.maximum(np.concatenate(lower), -OPEN),
+            np.minimum(np.concatenate(upper), OPEN))
     qp.solve()
     if qp.results.info.status == proxqp.QPSolverOutput.PROXQP_SOLVED:
         return qp.results.x

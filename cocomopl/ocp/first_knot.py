@@ -29,7 +29,8 @@ import crocoddyl
 import numpy as np
 from proxsuite import proxqp
 
-OPEN = 1e20  # an open side of a bound, as a finite number ProxQP accepts
+from cocomopl.ocp.contact_controls import OPEN
+
 TOLERANCE = 1e-9  # of the QP (ProxQP's absolute tolerance, N and N m on the barrier rows)
 
 
