@@ -89,7 +89,7 @@ def cocomopl_cyclic(length: float) -> dict:
     robot = Robot("talos")
     settings = OCPSettings(ss_search_step=0.0)
     start = time.perf_counter()
-    solutions, info = solve_length(robot, length, settings, ("cyclic",))
+    solutions, _info = solve_length(robot, length, settings, kinds=("cyclic",))
     total = time.perf_counter() - start
     solution = solutions["cyclic"]
     motion = to_motion(robot, solution, settings)
@@ -131,7 +131,7 @@ def main() -> int:
     s = OCPSettings()
     report["side_by_side"] = [
         ours,
-        crocoddyl_reference(length, s.dt, int(round(s.ds_duration / s.dt)), int(round(s.ss_duration / s.dt))),
+        crocoddyl_reference(length, s.dt, round(s.ds_duration / s.dt), round(s.ss_duration / s.dt)),
     ]
     if args.json:
         print(json.dumps(report))

@@ -37,9 +37,8 @@ import time
 from functools import partial
 
 import numpy as np
-from tqdm import tqdm
-
 from random_walks import random_lengths
+from tqdm import tqdm
 
 from cocomopl.gait import M_GEN_MM
 from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS
@@ -53,9 +52,10 @@ def run_one(lengths_mm: list[float], warm_start_from: str = DEFAULT_WARM_START) 
     from cocomopl.ocp.refine import cold_solve, torque_cost
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.pipeline import generate_walk, refine
+    from cocomopl.requests import Refinement, StraightSteps, WalkRequest
 
-    walk = generate_walk([x / 1000 for x in lengths_mm])
-    refined, summary = refine(walk.motion, warm_start_from=warm_start_from)
+    walk = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in lengths_mm])))
+    refined, summary = refine(walk.motion, Refinement(warm_start=warm_start_from))
     _, attrs = read_motions(BUNDLED_DATASET, dataset=True)
     settings = OCPSettings.from_saved(attrs["settings"])
     rows = []
@@ -69,7 +69,7 @@ def run_one(lengths_mm: list[float], warm_start_from: str = DEFAULT_WARM_START) 
                      "cold_iterations": cold.stats["iterations"], "cold_converged": cold.stats["converged"],
                      "cold_cost": cold.stats["cost"], "cold_solve_s": cold.stats["solve_time_s"],
                      "cold_guess_s": cold.stats["guess_s"], "cold_step_s": cold.stats["step_s"]})
-    return {"lengths_mm": lengths_mm, "raw_cost_ratio": summary["raw_cost_ratio"],
+    return {"lengths_mm": lengths_mm, "raw_cost_ratio": summary.raw_cost_ratio,
             "refined_torque_cost": torque_cost(refined.motion), "steps": rows}
 
 

@@ -412,7 +412,7 @@ def motion_cases() -> list[Case]:
 def dataset_cases() -> list[Case]:
     """The bundled dataset, corrupted in one motion that is not its first, or as a whole."""
     table = [
-        ("nan", "q.nan", at_sample("q", NAN), DATASET_READERS + (REPRODUCE_DATA,)),
+        ("nan", "q.nan", at_sample("q", NAN), (*DATASET_READERS, REPRODUCE_DATA)),
         ("inf", "tau.inf", at_sample("tau", INF), (CHECK, EXPORT_TARGET)),
         ("nan", "signals.nan", at_sample("signals/values", NAN), (INFO, TRAIN)),
         ("shape", "signals.drop-column", replaced("signals/values", lambda a, g: a[:, :-1]), (TRAIN,)),
@@ -441,7 +441,7 @@ def model_cases() -> list[Case]:
         ("model-array", "sigma.strings", model_array("sigma", lambda a: a.astype(str)), (GENERATE,)),
         ("model-array", "n_phases.fractional", model_array("n_phases", lambda a: a + 0.5), (GENERATE,)),
         ("model-meta", "n_primitives.string", model_meta("n_primitives", "eleven"), MODEL_READERS),
-        ("model-meta", "n_primitives.negative", model_meta("n_primitives", -3), MODEL_READERS + (REPRODUCE_MODEL,)),
+        ("model-meta", "n_primitives.negative", model_meta("n_primitives", -3), (*MODEL_READERS, REPRODUCE_MODEL)),
         ("model-meta", "n_primitives.mismatch", model_meta("n_primitives", 4), (GENERATE, WALK)),
         ("model-meta", "kernel.unknown", model_meta("kernel", "cubic"), MODEL_READERS),
         ("model-meta", "explained_variance.list", model_meta("explained_variance", [0.9, 0.9]), (MODEL_INFO,)),
@@ -573,7 +573,7 @@ def run_command(argv: tuple[str, ...], cwd: Path, timeout: float) -> tuple[int |
     proc = subprocess.Popen(
         [sys.executable, "-m", "cocomopl", *argv], cwd=cwd, env=child_env(), stdin=subprocess.DEVNULL,
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace", start_new_session=True,
-        preexec_fn=_limit_memory,  # noqa: PLW1509
+        preexec_fn=_limit_memory,
     )
     try:
         stdout, stderr = proc.communicate(timeout=timeout)

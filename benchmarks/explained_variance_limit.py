@@ -85,7 +85,7 @@ def main() -> int:
             steps, types = learned_parts(steps)
         except Error as exc:
             parser.error(str(exc))
-    X = resample(steps, phase_templates(steps, types), np.linspace(0.0, 1.0, 100), types)
+    X = resample(steps, phase_templates(steps, types), np.linspace(0.0, 1.0, 100), types=types)
     groups = signal_groups(steps.signal_names)
     rows = [{"n_primitives": S, **best_balanced(X, groups, S)} for S in sizes]
     if args.json:

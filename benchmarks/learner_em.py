@@ -21,7 +21,7 @@ import numpy as np
 
 from cocomopl.data import dataset_path
 from cocomopl.primitives import em, optimise
-from cocomopl.primitives.estimator import _SlotLayout, explained_variance, pca_signal_weights
+from cocomopl.primitives.estimator import SlotLayout, explained_variance, pca_signal_weights
 from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample
 
 
@@ -37,15 +37,17 @@ def main() -> int:
     steps = load_training_steps(dataset_path())
     parts, types = learned_parts(steps)
     tau = np.linspace(0.0, 1.0, 100)
-    X = resample(parts, phase_templates(parts, types), tau, types)
-    layout = _SlotLayout(parts, types)
-    data = (layout.to_slots(X), layout.mask, layout.d2, tau)
+    X = resample(parts, phase_templates(parts, types), tau, types=types)
+    layout = SlotLayout(parts, types)
+    data = (layout.to_slots(X), layout.mask, layout.d2)
     weights = pca_signal_weights(X, steps.signal_names)
     rows = []
     for S in (int(x) for x in args.primitives.split(",")):
-        fits = {"em": lambda S=S: em.maximise_bound_em(*data, S, args.kernel, args.rounds, weights)}
+        fits = {"em": lambda S=S: em.maximise_bound_em(*data, tau=tau, S=S, kernel=args.kernel, max_rounds=args.rounds,
+                                                        signal_weights=weights)}
         if args.joint:
-            fits["joint"] = lambda S=S: optimise.maximise_bound(*data, S, args.kernel, args.iterations, weights)
+            fits["joint"] = lambda S=S: optimise.maximise_bound(*data, tau=tau, S=S, kernel=args.kernel,
+                                                                 max_iterations=args.iterations, signal_weights=weights)
         for name, fit in fits.items():
             started = time.perf_counter()
             result = fit()

@@ -35,7 +35,7 @@ def measure(robot: Robot, path, specs_of) -> dict:
         steps = generate_steps(model, specs)
         runs.append(time.perf_counter() - started)
     started = time.perf_counter()
-    place_steps(robot, steps, 0.025)
+    place_steps(robot, steps, dt=0.025)
     placed = time.perf_counter() - started
     return {"steps": len(specs), "generation_us_per_step": 1e6 * float(np.median(runs)) / len(specs),
             "placement_s_per_step": placed / len(specs)}
@@ -50,7 +50,8 @@ def main() -> int:
     report = {
         "straight_m_gen": measure(robot, BUNDLED_MODEL, lambda m: sequence_specs(list(M_GEN))),
         "omni_goal_1_0.5_90": measure(robot, BUNDLED_OMNI_MODEL,
-                                      lambda m: plan_to_goal(robot, (1.0, 0.5, math.radians(90)), m.footstep_range())),
+                                      lambda m: plan_to_goal(robot, (1.0, 0.5, math.radians(90)),
+                                                             limits=m.footstep_range())),
     }
     if args.json:
         print(json.dumps(report))

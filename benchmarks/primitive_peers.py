@@ -39,6 +39,7 @@ fit time is the mean wall time of one fold's fit (the primitives' two at a time)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
@@ -223,10 +224,8 @@ class _AffineHull:
         self.coords = (z - self.origin) @ self.axes.T  # (n, r)
         self.triangulation = None
         if len(self.axes) >= 2:
-            try:
+            with contextlib.suppress(QhullError):  # degenerate: nearest neighbour only
                 self.triangulation = Delaunay(self.coords)
-            except QhullError:  # degenerate: nearest neighbour only
-                pass
 
     def weights(self, target: np.ndarray) -> np.ndarray:
         """Weights of the points whose sum interpolates them linearly at ``target`` (D,),
@@ -299,7 +298,7 @@ def main() -> int:
     folds = lolo_folds(steps)
     bundled = model_metadata(BUNDLED_MODEL)
     n_primitives, iterations = (5, 5) if args.quick else (bundled["n_primitives"], DEFAULT_MAX_ITERATIONS)
-    mp = MovementPrimitives(n_primitives, bundled["kernel"], n_grid=N_GRID, max_iterations=iterations)
+    mp = MovementPrimitives(n_primitives=n_primitives, kernel=bundled["kernel"], n_grid=N_GRID, max_iterations=iterations)
     # (estimator, fitting processes): a primitive fit takes tens of seconds on one core, so two
     # folds at a time; the peers fit in milliseconds
     methods = {"movement_primitives": (mp, 2), "promp": (ProMPPeer(), 1), "pca_interpolation": (PCAPeer(), 1)}

@@ -36,9 +36,10 @@ _WORKER: dict = {}
 
 def _start_worker(goal: tuple[float, float, float]) -> None:
     from cocomopl.pipeline import generate_walk
+    from cocomopl.requests import Goals, WalkRequest
     from cocomopl.sim.mujoco_model import build_sim_model
 
-    walk = generate_walk(goal=goal)
+    walk = generate_walk(WalkRequest(Goals([goal])))
     _WORKER.update(walk=walk, sim=build_sim_model(walk.robot, visuals=False))
 
 
@@ -52,7 +53,7 @@ def run_push(task: dict) -> dict:
     force = [0.0, 0.0]
     force[task["axis"]] = task["force_n"] * task["sign"]
     rollout = simulate(_WORKER["sim"], walk.motion, stabilizer=True, pushes=[Push(task["time_s"], tuple(force))],
-                       recovery=recovery)
+                       replanner=recovery)
     return {**task, "fell": rollout.fell, "replans": rollout.measured.meta.get("recoveries", [])}
 
 

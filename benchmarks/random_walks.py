@@ -6,9 +6,9 @@ the last repeating the one before it (a stop starts in its own gait), each withi
 consecutive steps in the paper's training set, 150 -> 250; the bundled set's transitions
 change by 50 mm; 0 removes the limit), is generated with the bundled model (or ``--model``), placed in the
 world (with the dynamics filter and the upper body's limit correction), checked as a plan
-with the checks of ``cocomopl dataset check`` (inverse dynamics, ZMP margin, friction, limits;
-issue #3, point 6), and simulated with the stabilizer on, and with it off.  Goal (issue #4):
-at least 95 % walk without falling.
+with the checks of ``cocomopl dataset check`` (inverse dynamics, ZMP margin, friction, limits),
+and simulated with the stabilizer on, and with it off.  Goal (docs/results.md#goals): at
+least 95 % walk without falling.
 
 With ``--goals``, each walk goes to a random goal pose instead (within 1.5 m ahead, 0.6 m
 behind or aside and 90 degrees, :func:`random_goal`): its footsteps are planned within the
@@ -65,6 +65,7 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
     from cocomopl.analysis.feasibility import check_motion, tolerances, violations
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.pipeline import generate_walk, goal_errors, kajita_for, reaiming_for
+    from cocomopl.requests import Goals, StraightSteps, WalkRequest
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
@@ -73,11 +74,11 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
         x, y, yaw = request["goal"]
         goal = (x, y, math.radians(yaw))
         try:
-            walk = generate_walk(model_path=model, goal=goal)
+            walk = generate_walk(WalkRequest(Goals([goal]), model=model))
         except Error as exc:
             return {**request, "unplanned": str(exc)}
     else:
-        walk = generate_walk([x / 1000 for x in request["lengths_mm"]], model)
+        walk = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in request["lengths_mm"]]), model=model))
     sim = build_sim_model(walk.robot, visuals=False, contact_time_constant=contact_time_constant)
     # the plan against the checks of `cocomopl dataset check`, with the OC data's friction
     checks = check_motion(walk.robot, walk.motion, OCPSettings().friction)
@@ -88,7 +89,7 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
         motion, (stabilizer, servo_feedforward, reaimed) = ((kajita_for(walk), (True, False, False)) if name == "kajita"
                                                             else (walk.motion, RUNS[name]))
         rollout = simulate(sim, motion, stabilizer=stabilizer, reference_cutoff_hz=reference_cutoff_hz,
-                           feedforward=servo_feedforward, reaiming=reaiming_for(walk) if reaimed else None)
+                           feedforward=servo_feedforward, replanner=reaiming_for(walk) if reaimed else None)
         out[name] = {
             "fell": rollout.fell,
             "fall_time_s": rollout.fall_time,
@@ -97,7 +98,8 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
         }
         if goal is not None:
             errors = goal_errors(walk.robot, rollout.measured, [goal])
-            out[name] |= {k: errors[k] for k in ("final_position_error_m", "final_yaw_error_deg")}
+            out[name] |= {"final_position_error_m": errors.final_position_error_m,
+                          "final_yaw_error_deg": errors.final_yaw_error_deg}
     return out
 
 

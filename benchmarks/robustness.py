@@ -104,12 +104,13 @@ def run_trial(task: dict) -> dict:
     """One rollout: ``task`` names the walk (or carries a random walk's lengths), the class,
     the magnitude and the trial's seed."""
     from cocomopl.pipeline import generate_walk
+    from cocomopl.requests import StraightSteps, WalkRequest
     from cocomopl.sim.perturbations import perturbed
     from cocomopl.sim.rollout import simulate
 
     sim = _WORKER["sim"]
     if task["walk"] == "random":
-        motion = generate_walk([x / 1000 for x in task["lengths_mm"]]).motion
+        motion = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in task["lengths_mm"]]))).motion
     else:
         motion = _WORKER["walks"][task["walk"]]
     rng = np.random.default_rng(task["seed"])
@@ -129,10 +130,11 @@ def prepare_walks() -> dict:
     from cocomopl.motion_file import read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
     from cocomopl.pipeline import generate_walk, kajita_for
+    from cocomopl.requests import StraightSteps, WalkRequest
 
-    walk = generate_walk(list(M_GEN))
+    walk = generate_walk(WalkRequest(StraightSteps(M_GEN)))
     dataset, attrs = read_motions(BUNDLED_DATASET, dataset=True)
-    m_opt = solve_sequence(walk.robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"])
+    m_opt = solve_sequence(walk.robot, sequence_specs(list(M_OPT)), dataset, settings=attrs["settings"])
     return {"M_gen": walk.motion, "M_opt": m_opt, "Kajita": kajita_for(walk)}
 
 

@@ -49,11 +49,12 @@ def plans(lengths_mm: tuple, opt_lengths_mm: tuple | None = None) -> dict:
     from cocomopl.motion_file import read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
     from cocomopl.pipeline import generate_walk, kajita_for
+    from cocomopl.requests import StraightSteps, WalkRequest
 
     dataset, attrs = read_motions(dataset_path(), dataset=True)
-    walk = generate_walk([x / 1000 for x in lengths_mm])
+    walk = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in lengths_mm])))
     specs = sequence_specs([x / 1000 for x in (opt_lengths_mm or lengths_mm)])
-    oc = solve_sequence(walk.robot, specs, dataset, attrs["settings"])
+    oc = solve_sequence(walk.robot, specs, dataset, settings=attrs["settings"])
     return {"MP": walk.motion, "OC": oc, "Kajita": kajita_for(walk)}
 
 

@@ -46,7 +46,7 @@ def main() -> int:
     results, motions = [], {}
     for weight in (0.0, base.w_torque_rate):
         settings = replace(base, w_torque_rate=weight)
-        solution = solve_step(robot, StepSpec("cyclic", length, length), {length: x0}, settings, warm)
+        solution = solve_step(robot, StepSpec("cyclic", length, length), {length: x0}, settings=settings, guess=warm)
         motion = to_motion(robot, solution, settings)
         tau = motion.tau[:-1]
         motions[weight] = motion

@@ -11,9 +11,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 # (works on CPU-only machines without a display) unless the user chose otherwise.
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from cocomopl.errors import Error  # noqa: E402
+from cocomopl.errors import Error
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # Public names, imported on first use: ``import cocomopl`` stays light (the CLI starts fast)
 # and the fitting code's JAX is loaded only by those who fit.
@@ -33,9 +33,15 @@ _EXPORTS = {
     "generate_walk": "cocomopl.pipeline",
     "simulate_walk": "cocomopl.pipeline",
     "SimSettings": "cocomopl.pipeline",
+    "WalkRequest": "cocomopl.requests",
+    "StraightSteps": "cocomopl.requests",
+    "Footsteps": "cocomopl.requests",
+    "Goals": "cocomopl.requests",
+    "Refinement": "cocomopl.requests",
 }
 
-__all__ = ["Error", "__version__", *_EXPORTS]
+__all__ = ["Error", "__version__"]
+__all__ += list(_EXPORTS)
 
 
 def __getattr__(name: str):

@@ -2,6 +2,10 @@
 
 import sys
 
-from cocomopl.cli import main
+try:
+    from cocomopl.cli import main
+except KeyboardInterrupt:  # Ctrl-C before the command started: as main says it once started
+    print("cocomopl: interrupted", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

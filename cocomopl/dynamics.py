@@ -49,7 +49,7 @@ def finite_difference_accelerations(t: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.diff(v, axis=0) / dt[:, None]
 
 
-def inverse_dynamics_residual(robot: Robot, q, v, a, tau, wrenches) -> np.ndarray:
+def inverse_dynamics_residual(robot: Robot, q, v, *, a, tau, wrenches) -> np.ndarray:
     """``M a + h - S^T tau - sum J^T f`` per sample (n, nv): zero for consistent dynamics."""
     model, data = robot.model, robot.model.createData()
     out = np.empty((len(q), model.nv))
@@ -77,7 +77,7 @@ def pelvis_placements(robot: Robot, q: np.ndarray) -> list[pin.SE3]:
 
 
 def inverse_dynamics_with_contacts(
-    robot: Robot, t: np.ndarray, q: np.ndarray, contact: np.ndarray, impacts: np.ndarray
+    robot: Robot, t: np.ndarray, q: np.ndarray, *, contact: np.ndarray, impacts: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Velocities, joint torques and contact wrenches that realise a kinematic motion.
 
@@ -129,6 +129,7 @@ def kinematic_motion(
     robot: Robot,
     t: np.ndarray,
     q: np.ndarray,
+    *,
     contact: np.ndarray,
     impacts: np.ndarray,
     phases: list,
@@ -140,7 +141,7 @@ def kinematic_motion(
     """The :class:`Motion` of a kinematic walk: velocities, torques and contact wrenches by
     :func:`inverse_dynamics_with_contacts`; ``zmp`` as given (a reference) or, by default,
     the ZMP of those wrenches."""
-    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
+    v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact=contact, impacts=impacts)
     if zmp is None:
         zmp = zmp_from_wrenches(sole_placements(robot, q), wrenches)
     return Motion(

@@ -32,21 +32,21 @@ def foot_separation(robot: Robot) -> float:
     return round(float(left[1] - right[1]), 4)
 
 
-def footstep_pose(other: np.ndarray, side: str, length: float, width: float, turn: float,
-                  separation: float) -> np.ndarray:
-    """Where sole ``side`` lands, (x, y, yaw), taking the footstep (length, width, turn) from
+def footstep_pose(other: np.ndarray, side: str, footstep: Sequence[float], *, separation: float) -> np.ndarray:
+    """Where sole ``side`` lands, (x, y, yaw), taking the ``footstep`` (length, width, turn) from
     the other sole at pose ``other`` (:class:`~cocomopl.motion.StepSpec` says how a footstep
     is measured); ``separation``: the soles' nominal lateral distance (m)."""
+    length, width, turn = footstep
     sign = 1.0 if side == "left" else -1.0
     dx, dy = length, sign * (separation + width)
     c, s = math.cos(other[2]), math.sin(other[2])
     return np.array([other[0] + c * dx - s * dy, other[1] + s * dx + c * dy, other[2] + sign * turn])
 
 
-def footstep_origin(landed: np.ndarray, side: str, length: float, width: float, turn: float,
-                    separation: float) -> np.ndarray:
-    """The pose of the sole that sole ``side`` took the footstep (length, width, turn) from,
+def footstep_origin(landed: np.ndarray, side: str, footstep: Sequence[float], *, separation: float) -> np.ndarray:
+    """The pose of the sole that sole ``side`` took the ``footstep`` (length, width, turn) from,
     given where it ``landed``: the inverse of :func:`footstep_pose`."""
+    length, width, turn = footstep
     sign = 1.0 if side == "left" else -1.0
     yaw = landed[2] - sign * turn
     dx, dy = length, sign * (separation + width)
@@ -64,18 +64,19 @@ FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.165), "turn": (-ma
 FEET_GAP = 0.01  # m between the feet's meshes, both flat on the ground
 
 
-def check_footstep(robot: Robot, side: str, length: float, width: float, turn: float) -> None:
-    """An :class:`Error` unless sole ``side`` may land at the footstep (length, width, turn)
+def check_footstep(robot: Robot, side: str, footstep: Sequence[float]) -> None:
+    """An :class:`Error` unless sole ``side`` may land at the ``footstep`` (length, width, turn)
     from the other: within ``FOOTSTEP_RANGE`` and with the feet's meshes ``FEET_GAP`` apart."""
     from cocomopl.kinematics import flat_placement, soles_distance
 
+    length, width, turn = footstep
     asked = {"length": length, "width": width, "turn": turn}
     for key, value in asked.items():
         low, high = FOOTSTEP_RANGE[key]
         if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
             unit, scale = ("deg", math.degrees(1)) if key == "turn" else ("mm", 1000)
             raise Error(f"footstep {key} {value * scale:g} {unit} is outside {low * scale:g}..{high * scale:g} {unit}")
-    landed = footstep_pose(np.zeros(3), side, length, width, turn, foot_separation(robot))
+    landed = footstep_pose(np.zeros(3), side, footstep, separation=foot_separation(robot))
     other = OTHER_SIDE[side]
     gap = soles_distance(robot, {other: flat_placement(0.0, 0.0, 0.0), side: flat_placement(*landed)})
     if gap < FEET_GAP:
@@ -113,9 +114,9 @@ def footsteps(robot: Robot, specs: list[StepSpec], soles: dict[str, np.ndarray] 
         start = {k: v.copy() for k, v in poses.items()}
         stance, swing = OTHER_SIDE[spec.swing_side], spec.swing_side
         footstep = spec.start_footstep if spec.kind == "stop" else spec.end_footstep
-        poses[swing] = footstep_pose(poses[stance], swing, *footstep, separation)
+        poses[swing] = footstep_pose(poses[stance], swing, footstep, separation=separation)
         if spec.kind == "stop":  # the stance foot closes up beside it
-            poses[stance] = footstep_pose(poses[swing], stance, 0.0, 0.0, 0.0, separation)
+            poses[stance] = footstep_pose(poses[swing], stance, (0.0, 0.0, 0.0), separation=separation)
         out.append({
             "start": {side: np.array([p[0], p[1], 0.0]) for side, p in start.items()},
             "end": {side: np.array([p[0], p[1], 0.0]) for side, p in poses.items()},
@@ -141,12 +142,12 @@ def phase_plan(spec: StepSpec) -> list[tuple[str, str | None]]:
     return plan
 
 
-def ground_position(feet: dict, plan: list, side: str, phase: int) -> np.ndarray:
+def ground_position(feet: dict, plan: list, side: str, *, phase: int) -> np.ndarray:
     """Where a sole stands in a phase: its start position until it has swung, then its end."""
     return feet[_when(plan, side, phase)][side]
 
 
-def ground_yaw(feet: dict, plan: list, side: str, phase: int) -> float:
+def ground_yaw(feet: dict, plan: list, side: str, *, phase: int) -> float:
     """The yaw (rad) of a sole in a phase, as :func:`ground_position` places it."""
     return feet["yaw"][_when(plan, side, phase)][side]
 

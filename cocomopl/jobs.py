@@ -1,7 +1,8 @@
-"""One function per ``cocomopl`` command: files in, files and a JSON-able summary out.
+"""One function per ``cocomopl`` command: files in, files and a typed result out.
 
-The command line only parses its options, calls one of these and prints the summary, so a
-script gets exactly what the command gives.  Each function checks what a user can get
+The command line only parses its options, calls one of these and prints the result
+(:mod:`cocomopl.results`: ``to_json()`` and ``to_table()``), so a script gets exactly what
+the command gives.  Each function checks what a user can get
 wrong before it writes anything, and raises :class:`~cocomopl.errors.Error` with one line
 naming the problem.  ``command`` is recorded in the files' provenance (None: "Python API").
 ``cocomopl walk`` and ``cocomopl reproduce`` are :func:`cocomopl.pipeline.walk_report` and
@@ -19,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from cocomopl.data import dataset_path, model_path
-from cocomopl.errors import Error
+from cocomopl.errors import Error, require_extra
 from cocomopl.motion_file import (
     check_output,
     is_dataset,
@@ -30,8 +31,24 @@ from cocomopl.motion_file import (
     report_folder,
     write_motions,
 )
-from cocomopl.ocp.settings import DEFAULT_WARM_START
 from cocomopl.provenance import file_identity, stamp
+from cocomopl.requests import Refinement, WalkRequest
+from cocomopl.results import (
+    CheckReport,
+    DatasetInfo,
+    DatasetSummary,
+    ExportReport,
+    FamilyReport,
+    GenerateReport,
+    GrowReport,
+    ModelExport,
+    ModelInfo,
+    PlotReport,
+    RefineReport,
+    SimulateReport,
+    StepRow,
+    TrainReport,
+)
 from cocomopl.robot import DEFAULT_ROBOT
 
 
@@ -40,6 +57,7 @@ def generate_dataset(
     out: str | Path,
     lengths: tuple[float, ...],
     extra_transitions: tuple[tuple[float, float], ...] | None = None,
+    *,
     robot: str = DEFAULT_ROBOT,
     dt: float | None = None,
     max_iterations: int | None = None,
@@ -49,7 +67,7 @@ def generate_dataset(
     scheduler: str | None = None,
     command: str | None = None,
     progress: bool = False,
-) -> dict:
+) -> DatasetSummary:
     """Solve the training OCPs for step ``lengths`` (m) and write the dataset to ``out``.
 
     The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults, with
@@ -64,11 +82,32 @@ def generate_dataset(
                  "min_knee_flexion": min_knee_flexion}
     settings = replace(OCPSettings(), **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot])  # a robot description file is an input
-    return generate(out, lengths, extra_transitions, robot, settings, workers, scheduler, command or "Python API",
-                    progress)
+    return DatasetSummary(**generate(out, lengths, extra_transitions, robot_name=robot, settings=settings,
+                                     workers=workers, scheduler=scheduler, command=command or "Python API",
+                                     progress=progress))
 
 
-def check_dataset_file(path: str | Path | None = None, verbose: bool = False) -> dict:
+def dataset_summary(path: str | Path | None = None) -> DatasetInfo:
+    """Counts, convergence, timings and provenance of a dataset (default: the bundled one;
+    :func:`cocomopl.dataset.info.dataset_info`)."""
+    from cocomopl.dataset.info import dataset_info
+
+    return DatasetInfo(dataset_info(dataset_path(path)))
+
+
+def _saved_setting(path: Path, settings: dict, key: str, default: float) -> float:
+    """The OCP setting ``key`` a file was made with, as a number (``default`` if it names none);
+    an :class:`Error` naming the file and the setting if it holds something else (a null, a word)."""
+    value = settings.get(key, default)
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        return float(value)
+    except (TypeError, ValueError):
+        raise Error(f"{path}: its OCP setting {key!r} is {value!r}, not a number") from None
+
+
+def check_dataset_file(path: str | Path | None = None, verbose: bool = False) -> CheckReport:
     """The independent check of a dataset or motion file (default: the bundled dataset);
     see :func:`cocomopl.dataset.check.check_dataset`.  NaN and Inf are read, and fail the
     check, rather than refused on reading.  Without ``verbose`` the per-motion values are
@@ -80,13 +119,14 @@ def check_dataset_file(path: str | Path | None = None, verbose: bool = False) ->
     motions, attrs = read_motions(path, finite=False, signals=is_dataset(path))
     defaults = OCPSettings()
     settings = attrs.get("settings") if isinstance(attrs.get("settings"), dict) else {}
-    friction, dt = float(settings.get("friction", defaults.friction)), float(settings.get("dt", defaults.dt))
+    friction = _saved_setting(path, settings, "friction", defaults.friction)
+    dt = _saved_setting(path, settings, "dt", defaults.dt)
     robot = load_robot(next(iter(motions.values())).robot)
     signals = {name: s["values"] for name, s in attrs.get("signals", {}).items()}
-    report = {"file": str(path), **check_dataset(robot, motions, friction, dt, signals)}
+    report = check_dataset(robot, motions, friction, dt=dt, signals=signals)
     if not verbose:
         report.pop("per_motion")
-    return report
+    return CheckReport(file=str(path), **report)
 
 
 def _trained_model(path: Path, model: Path):
@@ -119,21 +159,21 @@ def _check_probe_lengths(lengths: list[float], trained: list[float]) -> list[flo
 def _solve_probes(robot_name: str, settings: dict, lengths: list[float], workers: int, progress: bool) -> tuple[dict, list]:
     """The cyclic, start and stop steps of each length (m), solved as the dataset's are, in ``workers``
     local processes: the motions by spec and the names of the steps that did not converge."""
+    from concurrent.futures import as_completed
+
     from tqdm import tqdm
 
-    from cocomopl.dataset.generate import Executor, length_job
+    from cocomopl.dataset.generate import job_executor, job_result, length_job
 
-    executor = Executor(workers, None)
     solved, failed = {}, []
-    try:
-        futures = [executor.submit(length_job, robot_name, settings, L, ["cyclic", "start", "stop"]) for L in lengths]
-        for future in tqdm(executor.as_completed(futures), total=len(futures), desc="probe lengths solved",
+    with job_executor(workers, None) as executor:
+        futures = [executor.submit(length_job, robot_name, settings, L, kinds=["cyclic", "start", "stop"])
+                   for L in lengths]
+        for future in tqdm(as_completed(futures), total=len(futures), desc="probe lengths solved",
                            disable=not progress):
-            result = executor.result(future)
+            result = job_result(future)
             solved.update(result.motions)
             failed += list(result.failed)
-    finally:
-        executor.close()
     if not solved:
         raise Error(f"no probe step converged ({', '.join(failed)})")
     return solved, failed
@@ -143,10 +183,11 @@ def check_family_file(
     path: str | Path | None = None,
     model: str | Path | None = None,
     lengths: list[float] | None = None,
+    *,
     workers: int | None = None,
     probes_out: str | Path | None = None,
     progress: bool = False,
-) -> dict:
+) -> FamilyReport:
     """The family check of a dataset (default: the bundled one) against a model trained on it
     (default: the bundled one): its cyclic, start and stop steps solved at ``lengths`` (m;
     default: the midpoints of the dataset's lengths) and compared with the model's predictions
@@ -168,15 +209,16 @@ def check_family_file(
         write_motions(probes_out, {s.name: m for s, m in solved.items()},
                       {"content": "probes", "robot": robot.name, "settings": attrs["settings"]})
     probes = probe_steps(robot, solved, training.source)
-    errors = family_errors(primitives, probes, training, signal_group_indices(robot, training.signal_names))
-    return {"dataset": str(path), "model": str(model), "lengths_mm": [1000 * x for x in lengths],
-            "solved": len(solved), "failed": sorted(failed), "solve_s": time.perf_counter() - started, **errors}
+    errors = family_errors(primitives, probes, training, groups=signal_group_indices(robot, training.signal_names))
+    return FamilyReport(dataset=str(path), model=str(model), lengths_mm=[1000 * x for x in lengths], solved=len(solved),
+                        failed=sorted(failed), solve_s=time.perf_counter() - started, errors=errors)
 
 
 def grow_dataset(
     out: str | Path,
     data: str | Path | None = None,
     model: str | Path | None = None,
+    *,
     budget: int = 2,
     uniform: bool = False,
     held_out: str | Path | None = None,
@@ -185,7 +227,7 @@ def grow_dataset(
     command: str | None = None,
     progress: bool = False,
     warm_start: str = "model",
-) -> dict:
+) -> GrowReport:
     """Grow the dataset ``data`` (default: the bundled one) by ``budget`` step lengths where the
     model ``model`` trained on it (default: the bundled one) is least certain
     (:mod:`cocomopl.primitives.growth`; ``uniform``: spread evenly instead, the baseline), write
@@ -195,20 +237,20 @@ def grow_dataset(
     Each new length's cyclic, start and stop steps and its transitions to its neighbours are
     solved as ``dataset generate`` solves them (resumably, locally or on Dask at
     ``scheduler``), the warm-up walk warm-started from the model's walk at that length
-    (``warm_start`` "model") or from the dataset's OC walk at the nearest trained length
-    ("neighbour", continuation).  The held-out steps are those of ``held_out`` (saved by
-    ``dataset family --probes-out``), or, by default, solved at the midpoints of the dataset's
-    lengths; no length is picked among them.
+    (``warm_start`` "model", :func:`model_walk`) or from the dataset's OC walk at the nearest
+    trained length ("neighbour", continuation, :func:`neighbour_walk`).  The held-out steps are
+    those of ``held_out`` (saved by ``dataset family --probes-out``), or, by default, solved at
+    the midpoints of the dataset's lengths; no length is picked among them.
     """
     from cocomopl.dataset.generate import check_workers, generate
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.primitives.family import family_errors, probe_lengths, probe_steps, signal_group_indices
-    from cocomopl.primitives.growth import WARM_STARTS, check_budget, pick_uncertain, pick_uniform, variance_left
+    from cocomopl.primitives.growth import GROWTH_WARM_STARTS, check_budget, pick_uncertain, pick_uniform, variance_left
     from cocomopl.primitives.model_file import load_model
     from cocomopl.primitives.training import load_training_steps
 
-    if warm_start not in WARM_STARTS:
-        raise Error(f"the warm start must be one of {', '.join(WARM_STARTS)}, not {warm_start!r}")
+    if warm_start not in GROWTH_WARM_STARTS:
+        raise Error(f"the warm start must be one of {', '.join(GROWTH_WARM_STARTS)}, not {warm_start!r}")
     require_extra("jax", "train", "cocomopl dataset grow")
     data, model = dataset_path(data), model_path(model)
     training, dataset, attrs, primitives, robot, trained = _trained_model(data, model)
@@ -223,12 +265,13 @@ def grow_dataset(
     if uniform:
         picked = pick_uniform(trained, budget, held_lengths)
     else:
-        picked = [L for L, _ in pick_uncertain(primitives, trained, budget, held_lengths)]
+        picked = [L for L, _ in pick_uncertain(primitives, trained, budget, exclude=held_lengths)]
     settings = OCPSettings.from_saved(attrs["settings"])
     if warm_start == "model":
-        guesses = {L: _model_walk(robot, model, L, settings) for L in picked}
+        guesses = {L: model_walk(robot, model, L, settings=settings) for L in picked}
     else:
-        guesses = {L: _neighbour_walk(robot, dataset, attrs["settings"], min(trained, key=lambda x: abs(x - L)), L, settings)
+        guesses = {L: neighbour_walk(robot, dataset, attrs["settings"], neighbour=min(trained, key=lambda x: abs(x - L)),
+                                     length=L, settings=settings)
                    for L in picked}
     known = {m.steps[0]: m for m in dataset.values() if m.steps[0].swing_side == "left"}
     pairs = {(s.start_length, s.end_length) for s in known if s.kind == "transition" and s.start_length < s.end_length}
@@ -238,36 +281,42 @@ def grow_dataset(
                         "picked_mm": [1000 * L for L in picked],
                         "variance_left": [variance_left(primitives, L, []) for L in picked],
                         "held_out_mm": [1000 * L for L in held_lengths]}}
-    solved = generate(out, tuple(sorted(trained + picked)), tuple(sorted(pairs)), robot.name, settings, workers, scheduler,
-                      command or "Python API", progress, known=known, walk_guesses=guesses, record=record)
+    solved = generate(out, tuple(sorted(trained + picked)), extra_transitions=tuple(sorted(pairs)), robot_name=robot.name,
+                      settings=settings, workers=workers, scheduler=scheduler, command=command or "Python API",
+                      progress=progress, known=known, walk_guesses=guesses, record=record)
     retrained = train_model(out.with_suffix(".npz"), out, workers=workers if not scheduler else os.cpu_count() or 1,
                             command=command, progress=progress)
     groups = signal_group_indices(robot, training.signal_names)
     held = probe_steps(robot, probes, training.source)
     grown = load_training_steps(out)
-    errors = {"before": family_errors(primitives, held, training, groups)["all"],
-              "after": family_errors(load_model(out.with_suffix(".npz")).prepare(), held, grown, groups)["all"]}
-    return {**record["grown"], "dataset": str(out), "model": retrained["output"], "from": str(data),
-            "solved": solved["solved"], "failed": solved["failed"], "held_out_steps": len(probes),
-            "kernel": retrained["kernel"], "n_primitives": retrained["n_primitives"], "held_out": errors,
-            "wall_time_s": time.perf_counter() - started}
+    errors = {"before": family_errors(primitives, held, training, groups=groups)["all"],
+              "after": family_errors(load_model(out.with_suffix(".npz")).prepare(), held, grown, groups=groups)["all"]}
+    return GrowReport(grown=record["grown"], dataset=str(out), model=retrained.output, source=str(data),
+                      solved=solved["solved"], failed=solved["failed"], held_out_steps=len(probes),
+                      kernel=retrained.kernel, n_primitives=retrained.n_primitives, held_out=errors,
+                      wall_time_s=time.perf_counter() - started)
 
 
-def _model_walk(robot, model: Path, length: float, settings) -> tuple[np.ndarray, list[np.ndarray]]:
-    """The model's walk at ``length`` (m) on the knots of the warm-up walk of that length: states and torques."""
+def model_walk(robot, model: Path, length: float, *, settings) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The model's walk at ``length`` (m) on the knots of the warm-up walk of that length, as
+    ``settings`` (:class:`~cocomopl.ocp.settings.OCPSettings`) place them: states and torques
+    (``dataset grow --warm-start model``)."""
     from cocomopl.pipeline import generate_walk
+    from cocomopl.requests import StraightSteps, WalkRequest
 
-    return _on_warm_up_knots(robot, generate_walk([length] * 4, model).motion, length, settings)
+    walk = generate_walk(WalkRequest(StraightSteps((length,) * 4), model=model))
+    return _on_warm_up_knots(robot, walk.motion, length, settings)
 
 
-def _neighbour_walk(robot, dataset: dict, saved_settings: dict, neighbour: float, length: float,
-                    settings) -> tuple[np.ndarray, list[np.ndarray]]:
+def neighbour_walk(robot, dataset: dict, saved_settings: dict, *, neighbour: float, length: float,
+                   settings) -> tuple[np.ndarray, list[np.ndarray]]:
     """The dataset's OC walk at the trained length ``neighbour`` (its start, cyclic and stop steps
-    chained) on the knots of the warm-up walk of ``length``: continuation from the neighbour."""
+    chained, as ``saved_settings`` say) on the knots of the warm-up walk of ``length``, as
+    ``settings`` place them: continuation from the neighbour (``dataset grow --warm-start neighbour``)."""
     from cocomopl.gait import sequence_specs
     from cocomopl.ocp.chained_steps import solve_sequence
 
-    walk = solve_sequence(robot, sequence_specs([neighbour] * 4), dict(dataset), saved_settings)
+    walk = solve_sequence(robot, sequence_specs([neighbour] * 4), dict(dataset), settings=saved_settings)
     return _on_warm_up_knots(robot, walk, length, settings)
 
 
@@ -278,7 +327,7 @@ def _on_warm_up_knots(robot, walk, length: float, settings) -> tuple[np.ndarray,
     from cocomopl.ocp.solve import warm_up_plan
 
     plan = warm_up_plan(robot, length, settings)
-    xs, us = warm_start(robot, walk_guess(robot, walk), plan.phases, plan.x0, settings.dt)
+    xs, us = warm_start(robot, walk_guess(robot, walk), plan.phases, x0=plan.x0, dt=settings.dt)
     return np.array(xs), us
 
 
@@ -299,13 +348,14 @@ def _read_probes(path: str | Path, robot, attrs: dict, trained: list[float]) -> 
 def train_model(
     out: str | Path,
     data: str | Path | None = None,
+    *,
     n_primitives: tuple[int, ...] | None = None,
     kernels: tuple[str, ...] | None = None,
     max_iterations: int | None = None,
     workers: int = 1,
     command: str | None = None,
     progress: bool = False,
-) -> dict:
+) -> TrainReport:
     """Select a model among the candidate numbers of primitives and time kernels on the dataset
     ``data`` (default: the bundled one; :func:`~cocomopl.primitives.selection.select_model`),
     write it to ``out`` and the comparison plot beside it (``out`` with ``.png``).
@@ -345,12 +395,11 @@ def train_model(
     }
     save_model(out, best, metadata)
     plot = plot_model_selection(rows, out.with_suffix(".png"))
-    return {"output": str(out), "plot": str(plot), "kernel": best.kernel, "n_primitives": best.n_primitives,
-            "bound": best.bound_, "explained_variance": best.explained_variance_, "selection": rows,
-            "wall_time_s": wall}
+    return TrainReport(output=str(out), plot=str(plot), kernel=best.kernel, n_primitives=best.n_primitives,
+                       bound=best.bound_, explained_variance=best.explained_variance_, selection=rows, wall_time_s=wall)
 
 
-def model_info(path: str | Path | None = None, verbose: bool = False) -> dict:
+def model_info(path: str | Path | None = None, verbose: bool = False) -> ModelInfo:
     """Summary of a model file (default: the bundled one); ``verbose`` adds the
     model-selection table.  The training dataset is named by file name and checksum."""
     from cocomopl.primitives.model_file import model_metadata
@@ -359,10 +408,8 @@ def model_info(path: str | Path | None = None, verbose: bool = False) -> dict:
     meta = model_metadata(path)
     keys = ("n_primitives", "kernel", "max_iterations", "bound", "explained_variance", "n_grid", "created", "command",
             "versions", "training_wall_time_s", "checksum", "format_version")
-    info = {"file": path.name, **{k: meta.get(k) for k in keys}, "dataset": _dataset_identity(meta.get("dataset") or {})}
-    if verbose:
-        info["selection"] = meta.get("selection")
-    return info
+    return ModelInfo(file=path.name, **{k: meta.get(k) for k in keys}, dataset=_dataset_identity(meta.get("dataset") or {}),
+                     selection=meta.get("selection") if verbose else None)
 
 
 def _dataset_identity(dataset: dict) -> dict:
@@ -374,83 +421,60 @@ def _dataset_identity(dataset: dict) -> dict:
     return out
 
 
-def generate_walk_file(
-    lengths: list[float] | None,
-    out: str | Path,
-    model: str | Path | None = None,
-    dt: float | None = None,
-    first_swing: str = "left",
-    strict: bool = False,
-    command: str | None = None,
-    refine_steps: bool = False,
-    dataset: str | Path | None = None,
-    progress: bool = False,
-    landings=None,
-    goal=None,
-    warm_start_from: str = DEFAULT_WARM_START,
-) -> dict:
-    """Generate a walk with the primitives and write it as one motion to ``out`` (HDF5); with
-    ``refine_steps``, the walk refined by the OCPs of ``dataset`` (default: the bundled one
-    the model belongs with; :func:`cocomopl.pipeline.refine`, warm-started as
-    ``warm_start_from`` says).  The walk is given by step ``lengths`` (m, start ...
-    stop), footstep ``landings`` or a ``goal`` pose (or several, in turn), as in
-    :func:`cocomopl.pipeline.generate_walk`.
+def generate_walk_file(request: WalkRequest, out: str | Path, *, command: str | None = None,
+                       progress: bool = False) -> GenerateReport:
+    """Generate the walk of ``request`` with the primitives (refined by optimal control if it
+    asks so; :func:`cocomopl.pipeline.generate_walk`) and write it as one motion to ``out`` (HDF5).
 
     Returns per step its duration, uncertainty and training support, the timings, the
-    dynamics filter's error left, the upper-body correction, ``warnings``, and with
-    ``refine_steps`` the refinement's summary as ``refine``.
+    dynamics filter's error left, the upper-body correction, ``warnings``, and with a
+    refinement its summary as ``refine``.
     """
-    from cocomopl.pipeline import generate_walk, refine, walk_provenance
+    from cocomopl.pipeline import generate_walk, walk_provenance
+    from cocomopl.requests import StraightSteps
     from cocomopl.synthesis.step_chain import joint_std_max
 
-    model = model_path(model, omni=lengths is None)
-    dataset = dataset_path(dataset, omni=lengths is None) if refine_steps else None
-    out = output_file(out, "motion.h5", inputs=[model] + ([dataset] if dataset else []))
-    walk = generate_walk(lengths, model, dt, first_swing, strict, landings, goal)
-    motion, refined = walk.motion, None
-    if refine_steps:
-        refined_walk, refined = refine(motion, dataset, progress, warm_start_from)
-        motion = refined_walk.motion
-    provenance = walk_provenance(command, model, dataset=dataset)
+    out = output_file(out, "motion.h5", inputs=request.inputs())
+    walk = generate_walk(request, progress=progress)
+    motion = walk.planned
+    provenance = walk_provenance(command, request.model_file(), dataset=request.dataset_file())
     write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": motion.meta["producer"], **provenance})
-    rows = [{"step": s.spec.name, "duration_s": s.duration, "duration_std_s": float(np.linalg.norm(s.duration_std)),
-             "joint_std_max_rad": joint_std_max(walk.model, s), "in_support": bool(s.in_support),
-             "distance_mm": 1000 * s.distance} for s in walk.steps]
-    payload = {"output": str(out), "steps": rows, "n_steps": len(rows), "duration_s": motion.duration,
-               "generation_s": walk.generation_s, "placement_s": walk.placement_s,
-               "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
-               "upper_body_limits": walk.motion.meta["upper_body_limits"],
-               "out_of_support": [r["step"] for r in rows if not r["in_support"]], "warnings": walk.warnings}
-    if lengths is None:
-        payload["footsteps"] = walk.motion.meta["footsteps"]
-    return payload | ({"refine": refined} if refined else {})
+    rows = [StepRow(step=s.spec.name, duration_s=s.duration, duration_std_s=float(np.linalg.norm(s.duration_std)),
+                    joint_std_max_rad=joint_std_max(walk.model, s), in_support=bool(s.in_support),
+                    distance_mm=1000 * s.distance) for s in walk.steps]
+    return GenerateReport(
+        output=str(out), steps=rows, n_steps=len(rows), duration_s=motion.duration, generation_s=walk.generation_s,
+        placement_s=walk.placement_s, dynamics_filter_zmp_error_m=walk.motion.meta["plan_zmp_error_m"],
+        upper_body_limits=walk.motion.meta["upper_body_limits"],
+        out_of_support=[r.step for r in rows if not r.in_support], warnings=walk.warnings,
+        footsteps=None if isinstance(request.path, StraightSteps) else walk.motion.meta["footsteps"],
+        refine=walk.refinement)
 
 
 def refine_walk_file(
     path: str | Path,
     motion_name: str | None = None,
     out: str | Path | None = None,
-    dataset: str | Path | None = None,
+    *,
+    refinement: Refinement | None = None,
     command: str | None = None,
     progress: bool = False,
-    warm_start_from: str = DEFAULT_WARM_START,
-) -> dict:
-    """Refine a generated walk of a file by the OCPs of ``dataset`` (default: the bundled one,
-    the omnidirectional one for a walk that turns or side-steps), each warm-started as
-    ``warm_start_from`` says (:func:`cocomopl.pipeline.refine`), and write the refined walk to
-    ``out`` (default: ``<file>-refined.h5``).
-
-    Returns the summary of :func:`cocomopl.pipeline.refine`.
+) -> RefineReport:
+    """Refine a generated walk of a file as ``refinement`` says (default: by the OCPs of the
+    bundled dataset, the omnidirectional one for a walk that turns or side-steps, warm-started
+    from the solved steps around each; :func:`cocomopl.pipeline.refine`), and write the
+    refined walk to ``out`` (default: ``<file>-refined.h5``).
     """
     from cocomopl.pipeline import refine
 
+    refinement = refinement or Refinement()
     walk = read_motion(path, motion_name)
-    dataset = dataset_path(dataset, omni=not all(spec.straight for spec in walk.steps))
+    dataset = dataset_path(refinement.dataset, omni=not all(spec.straight for spec in walk.steps))
     out = output_file(out or f"{Path(path).stem}-refined.h5", "motion.h5", inputs=[path, dataset])
-    refined, summary = refine(walk, dataset, progress, warm_start_from)
+    refined, summary = refine(walk, replace(refinement, dataset=dataset), progress=progress)
     write_motions(out, {refined.motion.name: refined.motion},
                   {"robot": walk.robot, "producer": "ocp", **stamp(command, ("crocoddyl", "pin"), walk=path, dataset=dataset)})
-    return {"output": str(out), **summary}
+    return RefineReport(output=str(out), summary=summary)
 
 
 # ---------------------------------------------------------------------------- stage 3 and tools
@@ -458,10 +482,11 @@ def simulate_file(
     path: str | Path,
     motion_name: str | None = None,
     out: str | Path | None = None,
+    *,
     settings=None,
     command: str | None = None,
     progress: bool = False,
-) -> dict:
+) -> SimulateReport:
     """Run a motion of a file in MuJoCo as a position-controlled robot, as ``settings`` say
     (:class:`~cocomopl.pipeline.SimSettings`; default: its defaults), and write the measured
     motion to ``out`` (default: ``<file>-sim.h5`` in the working folder).
@@ -477,7 +502,7 @@ def simulate_file(
     rollout, metrics = simulate_walk(robot, reference, settings, progress=progress)
     write_motions(out, {"measured": rollout.measured},
                   {"robot": robot.name, "producer": "mujoco", **stamp(command, ("mujoco",), reference=path)})
-    return {"output": str(out), **simulation_record(rollout.measured), **metrics}
+    return SimulateReport(output=str(out), simulation=simulation_record(rollout.measured), metrics=metrics)
 
 
 def plot_folder(path: str | Path, motion_name: str | None = None) -> Path:
@@ -490,7 +515,7 @@ def _plots_of(path: str | Path, motion) -> Path:
     return Path(f"{motion.name if len(motion.steps) == 1 else Path(path).stem}-plots")
 
 
-def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path | None = None) -> dict:
+def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path | None = None) -> PlotReport:
     """PNGs of one motion of a file (joints, ZMP, contact forces, torques) in the report
     folder ``out`` (default: :func:`plot_folder`), written as a unit by
     :func:`~cocomopl.motion_file.report_folder`."""
@@ -500,11 +525,11 @@ def plot_file(path: str | Path, motion_name: str | None = None, out: str | Path 
     folder = Path(out) if out else _plots_of(path, motion)
     with report_folder(folder, inputs=[path]) as work:
         files = plot_motion(load_robot(motion.robot), motion, work)
-    return {"files": [str(folder / f.name) for f in files]}
+    return PlotReport(files=[str(folder / f.name) for f in files])
 
 
-def export_file(path: str | Path, fmt: str, prefix: str | Path, motion_name: str | None = None,
-                force: bool = False, robot: str = DEFAULT_ROBOT) -> dict:
+def export_file(path: str | Path, fmt: str, prefix: str | Path, *, motion_name: str | None = None,
+                force: bool = False, robot: str = DEFAULT_ROBOT) -> ExportReport:
     """Write a motion for a robot (``fmt`` "seqplay" or "csv", files ``prefix.*``) behind
     the safety gate, with the limits of ``robot`` (a bundled name or a description file,
     never the file's own word): an unsafe motion is refused with its first reason unless
@@ -517,14 +542,16 @@ def export_file(path: str | Path, fmt: str, prefix: str | Path, motion_name: str
         raise Error(f"--out {prefix} is a directory; give a file prefix such as {prefix / 'walk'}")
     for suffix in SUFFIXES.get(fmt, ()):  # an unknown format is export_motion's to refuse
         check_output(f"{prefix}{suffix}", [path], given=prefix)
-    files, report = export_motion(load_robot(robot), motion, fmt, prefix, force=force)
+    files, report = export_motion(load_robot(robot), motion, fmt, prefix=prefix, force=force)
     unsafe = report.pop("unsafe")
-    return {"files": [str(f) for f in files], "format": fmt, "unsafe": unsafe, "forced": bool(unsafe), "gate": report}
+    return ExportReport(files=[str(f) for f in files], format=fmt, unsafe=unsafe, forced=bool(unsafe), gate=report)
 
 
-def require_extra(module: str, extra: str, what: str) -> None:
-    """An :class:`Error` naming the pip extra to install if ``module`` is missing."""
-    import importlib.util
+def export_model_file(robot: str, fmt: str, out: str | Path) -> ModelExport:
+    """Write the model of ``robot`` (a bundled name or a description file) that cocomopl
+    simulates, in ``fmt`` (:func:`cocomopl.export.mjcf.export_model`)."""
+    from cocomopl.export.mjcf import export_model
 
-    if importlib.util.find_spec(module) is None:
-        raise Error(f"{what} needs the [{extra}] extra: pip install 'cocomopl[{extra}]' (or pip install -e '.[{extra}]')")
+    return ModelExport(export_model(robot, fmt, out))
+
+

@@ -32,6 +32,7 @@ def double_support_posture(
     robot: Robot,
     left_xy: tuple[float, float],
     right_xy: tuple[float, float],
+    *,
     com_xy: tuple[float, float] | None = None,
     yaws: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:
@@ -56,13 +57,14 @@ def double_support_posture(
                                                                               ("right", right_xy, yaws[1]))}
         # start the base facing between the feet
         q[3:7] = pin.Quaternion(flat_placement(0.0, 0.0, 0.5 * (yaws[0] + yaws[1])).rotation).coeffs()
-    return inverse_kinematics(robot, feet, com_xy, q)
+    return inverse_kinematics(robot, feet, com_xy, q_init=q)
 
 
 def inverse_kinematics(
     robot: Robot,
     feet: dict[str, np.ndarray | pin.SE3],
     com_xy: tuple[float, float],
+    *,
     q_init: np.ndarray,
     iterations: int = 200,
     check: bool = True,
@@ -128,7 +130,7 @@ def leg_joints(robot: Robot) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def place_legs(
-    robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], legs: dict, height_weight: float = HEIGHT_WEIGHT
+    robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], *, legs: dict, height_weight: float = HEIGHT_WEIGHT
 ) -> np.ndarray:
     """``q`` with the legs moved so each sole reaches ``targets[side]``.
 

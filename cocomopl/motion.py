@@ -95,7 +95,7 @@ class StepSpec:
         return f"{self.kind}_{lengths}{self._omni_suffix()}_{side}"
 
     @classmethod
-    def between(cls, kind: str, start: Footstep, end: Footstep, swing_side: str = "left") -> StepSpec:
+    def between(cls, kind: str, start: Footstep, end: Footstep, *, swing_side: str = "left") -> StepSpec:
         """The step of ``kind`` from footstep ``start`` to footstep ``end``."""
         return cls(kind, start.length, end.length, swing_side, start.width, end.width, start.turn, end.turn)
 

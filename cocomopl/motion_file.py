@@ -165,7 +165,7 @@ def _report_files(folder: Path) -> set[str] | None:
         return None
 
 
-def output_file(path: str | Path, example_name: str, inputs=(), beside: tuple[str, ...] = (),
+def output_file(path: str | Path, example_name: str, *, inputs=(), beside: tuple[str, ...] = (),
                 option: str = "--out") -> Path:
     """``path`` as an output file, checked by :func:`check_output` against ``inputs``, with the files of suffixes
     ``beside`` written next to it (``train``'s ".png"), before any work: an :class:`Error` if it is a directory
@@ -276,7 +276,7 @@ def _name_max(folder: Path) -> int:
 
 
 def remove_stale_temps(folder: Path) -> list[Path]:
-    """Remove the temporary files and folders in ``folder`` whose writer is no longer running (killed, so it could not
+    """Remove the temporary files and folders in ``folder`` whose writer has ended (killed, so it could not
     clean up), and return them.  A temporary of a live process is never touched; nor is one whose pid a new process
     has taken since (kept, harmless).  Best effort: what cannot be removed stays for a later run."""
     removed = []
@@ -450,7 +450,7 @@ def read_signals(group: h5py.Group, n_signals: int | None = None, finite: bool =
     return out
 
 
-def write_motions(path: str | Path, motions: dict[str, Motion], attrs: dict, signals: dict | None = None) -> None:
+def write_motions(path: str | Path, motions: dict[str, Motion], attrs: dict, *, signals: dict | None = None) -> None:
     """Write motions (by name) and file-level metadata atomically."""
     path = Path(path)
     with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
@@ -531,7 +531,7 @@ def is_dataset(path: str | Path) -> bool:
         return f.attrs.get("content") == "dataset"
 
 
-def read_motions(path: str | Path, finite: bool = True, dataset: bool = False, signals: bool = False,
+def read_motions(path: str | Path, *, finite: bool = True, dataset: bool = False, signals: bool = False,
                  robot=None) -> tuple[dict[str, Motion], dict]:
     """All motions of a file, by name, and its metadata, every one checked against ``robot``
     or, by default, the robot the file names, which must load (see :func:`read_motion_group`).

@@ -1,8 +1,10 @@
-"""The stages chained: step lengths -> generated walk (-> simulated walk -> report).
+"""The stages chained: a walk request -> generated walk (-> simulated walk -> report).
 
-:func:`generate_walk` and :func:`simulate_walk` are the online pipeline;
-:func:`walk_report` (``cocomopl walk``) and :func:`reproduce_report` (``cocomopl
-reproduce``) chain them into report folders, so scripts get what the command line gives.
+:func:`generate_walk` (a :class:`~cocomopl.requests.WalkRequest` in, a :class:`GeneratedWalk`
+out) and :func:`simulate_walk` are the online pipeline; :func:`walk_report` (``cocomopl
+walk``) and :func:`reproduce_report` (``cocomopl reproduce``) chain them into report folders
+and return the typed results of :mod:`cocomopl.results`, so scripts get what the command
+line gives.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,12 +27,13 @@ from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, M_OPT, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion, StepSpec
-from cocomopl.ocp.settings import DEFAULT_WARM_START
 from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
 from cocomopl.planning.goal import plan_through
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model
 from cocomopl.provenance import stamp
+from cocomopl.requests import PLAN_DT, Footsteps, Goal, Goals, Refinement, StraightSteps, WalkRequest
+from cocomopl.results import GoalErrors, RefineSummary, ReproduceReport, SimulationRecord, WalkReport
 from cocomopl.robot import DEFAULT_ROBOT, Robot
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
 from cocomopl.synthesis.world import place_steps, replace_stretch
@@ -44,15 +47,12 @@ if TYPE_CHECKING:  # the simulator is imported where a walk is simulated
 # (benchmarks/random_walks.py --seed 1), 25 of the 31 that fell were above it and 12 of the
 # 19 that walked below.
 FILTER_WARNING_M = 0.03
-Goal = tuple[float, float, float]  # x, y (m), yaw (rad) of the feet's midpoint, world frame
-# s: sample spacing of generated walks, the OC training data's knot spacing
-PLAN_DT = 0.025
-PLAN_DT_RANGE = (0.01, 0.05)  # s: see check_plan_dt; at 0.01 M_gen takes 76 s on 2 cores, at 0.005 500 s
 
 
 @dataclass
 class GeneratedWalk:
-    """A walk from the primitives, with what it cost to make."""
+    """A walk from the primitives, with what it cost to make, and its refinement by optimal
+    control where the request asked for one."""
 
     robot: Robot
     model: MovementPrimitives
@@ -61,6 +61,13 @@ class GeneratedWalk:
     generation_s: float  # the primitives alone, after loading
     placement_s: float  # world placement, dynamics filter and inverse dynamics
     warnings: list[str] = field(default_factory=list)
+    refined: Motion | None = None  # the walk refined by optimal control
+    refinement: RefineSummary | None = None
+
+    @property
+    def planned(self) -> Motion:
+        """The walk to follow: the refined one where there is one, else the generated one."""
+        return self.motion if self.refined is None else self.refined
 
 
 @dataclass(frozen=True)
@@ -100,7 +107,7 @@ def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
     from cocomopl.sim.recovery import StepRecovery
 
     def generate(landings: Sequence[Landing]) -> Motion:
-        return _noting_footsteps(place_steps(walk.robot, generate_steps(walk.model, walk_specs(walk.robot, landings)), dt),
+        return _noting_footsteps(place_steps(walk.robot, generate_steps(walk.model, walk_specs(walk.robot, landings)), dt=dt),
                                  landings)
 
     landings = landings_of(walk.robot, walk.motion.steps)
@@ -115,7 +122,7 @@ def reaiming_for(walk: GeneratedWalk, dt: float = PLAN_DT):
     from cocomopl.sim.reaiming import Reaiming
 
     def generate(specs: Sequence[StepSpec], motion: Motion, step: int) -> Motion:
-        changed = replace_stretch(walk.robot, motion, generate_steps(walk.model, specs), step, dt)
+        changed = replace_stretch(walk.robot, motion, generate_steps(walk.model, specs), step=step, dt=dt)
         return _noting_footsteps(changed, landings_of(walk.robot, specs))
 
     return Reaiming(walk.robot, walk.motion, generate, walk.model.footstep_range())
@@ -128,16 +135,7 @@ def _noting_footsteps(motion: Motion, landings: Sequence[Landing]) -> Motion:
     return motion
 
 
-def check_plan_dt(dt: float) -> float:
-    """``dt`` (s) if it is a sample spacing for a generated walk within ``PLAN_DT_RANGE``, else :class:`Error`."""
-    low, high = PLAN_DT_RANGE
-    if not low <= dt <= high:
-        raise Error(f"--dt {dt:g} s is outside {low:g} to {high:g} s (the dynamics filter's QP grows with the "
-                    "number of samples; beyond the upper end the touchdowns are not resolved)")
-    return dt
-
-
-def plan_in_support(robot: Robot, model: MovementPrimitives, goals: list[Goal], strict: bool = False) -> list[StepSpec]:
+def plan_in_support(robot: Robot, model: MovementPrimitives, goals: list[Goal], *, strict: bool = False) -> list[StepSpec]:
     """The steps of a walk through ``goals`` (:func:`~cocomopl.planning.goal.plan_through`)
     within ``model``'s learned footstep range, every step within its training support where
     such a walk exists: the learned range is a box around footsteps that need not fill it.
@@ -147,64 +145,54 @@ def plan_in_support(robot: Robot, model: MovementPrimitives, goals: list[Goal], 
         return all(step.in_support for step in model.predict_many(specs))
 
     try:
-        return plan_through(robot, goals, model.footstep_range(), supported)
+        return plan_through(robot, goals, limits=model.footstep_range(), accept=supported)
     except Error:
         if strict:
             raise
-    return plan_through(robot, goals, model.footstep_range())
+    return plan_through(robot, goals, limits=model.footstep_range())
 
 
-def generate_walk(
-    lengths: Sequence[float] | None = None,
-    model_path: str | Path | None = None,
-    dt: float | None = None,
-    first_swing: str = "left",
-    strict: bool = False,
-    landings: Sequence[Landing] | None = None,
-    goal: Goal | Sequence[Goal] | None = None,
-) -> GeneratedWalk:
-    """Generate and place a walk: start, ..., stop.
+def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedWalk:
+    """Generate and place the walk of ``request``: start, ..., stop.
 
-    The walk is one of: step ``lengths`` (m, straight ahead, ``first_swing`` first); the world
-    ``landings`` of a footstep plan (:mod:`cocomopl.planning.footsteps`); or a ``goal`` pose
-    (x, y in m, yaw in rad) of the feet's midpoint, planned within the model's learned
-    footstep range (:func:`~cocomopl.planning.goal.plan_to_goal`), or a list of such poses,
-    which the walk reaches in turn, stopping at each (:func:`~cocomopl.planning.goal.plan_through`).
-
-    ``model_path`` defaults to the bundled model (for footsteps and goals, the bundled
-    omnidirectional one) and ``dt`` (s) to ``PLAN_DT``.  A goal's walk is planned within the
-    training support where it can be (:func:`plan_in_support`).  Steps outside the support
-    are warned about (``warnings``), or refused with ``strict``.  So is a walk that the
-    dynamics filter could not make consistent (its ZMP more than ``FILTER_WARNING_M`` RMS
-    from the learned one): most such walks fall.
+    The walk follows the request's path: straight step lengths (first swing as given); the
+    world landings of a footstep plan (:mod:`cocomopl.planning.footsteps`); or goal poses
+    (x, y in m, yaw in rad) of the feet's midpoint, reached in turn, stopping at each, on
+    footsteps planned within the model's learned footstep range
+    (:func:`~cocomopl.planning.goal.plan_through`), within the training support where it
+    can be (:func:`plan_in_support`).  Steps outside the support are warned about
+    (``warnings``), or refused with ``strict``.  So is a walk that the dynamics filter could
+    not make consistent (its ZMP more than ``FILTER_WARNING_M`` RMS from the learned one):
+    most such walks fall.  With the request's refinement the walk is then refined by
+    optimal control (:func:`refine`; ``progress`` shows its bar): ``refined`` and
+    ``refinement``.
     """
-    if sum(x is not None for x in (lengths, landings, goal)) != 1:
-        raise Error("a walk is given by exactly one of step lengths, footsteps or a goal")
-    if lengths is not None:
-        specs = sequence_specs(lengths, first_swing)  # an impossible walk is refused before loading
-    model_path = bundled_model_path(model_path, omni=lengths is None)
+    path = request.path
+    if isinstance(path, StraightSteps):
+        specs = sequence_specs(path.lengths, path.first_swing)  # an impossible walk is refused before loading
+    model_path = request.model_file()
     model = load_model(model_path).prepare()
     robot = Robot(model.metadata_.get("robot", DEFAULT_ROBOT))
     if list(model.signal_names) != signal_names(robot):
         raise Error(f"{model_path}: its signals are not robot {robot.name}'s joints, ZMP and pelvis")
-    if lengths is not None:
-        check_reach(robot, lengths)
-    elif landings is not None:
-        specs = walk_specs(robot, landings)
+    if isinstance(path, StraightSteps):
+        check_reach(robot, path.lengths)
+    elif isinstance(path, Footsteps):
+        specs = walk_specs(robot, path.landings)
     else:
-        specs = plan_in_support(robot, model, goal_list(goal), strict)
-    dt = PLAN_DT if dt is None else check_plan_dt(dt)
+        specs = plan_in_support(robot, model, list(path.poses), strict=request.strict)
+    dt = PLAN_DT if request.dt is None else request.dt
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)
         started = time.perf_counter()
-        steps = generate_steps(model, specs, strict=strict)
+        steps = generate_steps(model, specs, strict=request.strict)
         generation_s = time.perf_counter() - started
     started = time.perf_counter()
-    motion = place_steps(robot, steps, dt)
+    motion = place_steps(robot, steps, dt=dt)
     placement_s = time.perf_counter() - started
     motion.meta["model"] = Path(model_path).name
-    if lengths is not None:
-        motion.meta["lengths_mm"] = [1000 * x for x in lengths]
+    if isinstance(path, StraightSteps):
+        motion.meta["lengths_mm"] = [1000 * x for x in path.lengths]
     else:
         _noting_footsteps(motion, landings_of(robot, specs))
     messages = [str(w.message) for w in caught]
@@ -214,22 +202,26 @@ def generate_walk(
             f"the dynamics filter left the walk's ZMP {100 * error:.1f} cm RMS from the learned one "
             f"(over {100 * FILTER_WARNING_M:.0f} cm): it is not dynamically consistent and will likely fall"
         )
-    return GeneratedWalk(robot, model, motion, steps, generation_s, placement_s, messages)
+    walk = GeneratedWalk(robot, model, motion, steps, generation_s, placement_s, messages)
+    if request.refinement is not None:
+        refinement = replace(request.refinement, dataset=request.dataset_file())
+        refined, walk.refinement = refine(motion, refinement, progress=progress)
+        walk.refined = refined.motion
+    return walk
 
 
-def refine(motion: Motion, dataset_path: str | Path | None = None, progress: bool = False,
-           warm_start_from: str = DEFAULT_WARM_START):
-    """Refine a generated walk by the OCPs of the dataset it was learned from (by default the
-    bundled one, the omnidirectional one for a walk that turns or side-steps;
-    :func:`cocomopl.ocp.refine.refine_walk`), each warm-started as ``warm_start_from`` says
+def refine(motion: Motion, refinement: Refinement | None = None, *, progress: bool = False):
+    """Refine a generated walk by the OCPs of the refinement's dataset, the one it was learned
+    from (by default the bundled one, the omnidirectional one for a walk that turns or
+    side-steps; :func:`cocomopl.ocp.refine.refine_walk`), each warm-started as the
+    refinement's ``warm_start`` says
     (:func:`cocomopl.ocp.refine.guess_states`): from the dataset's solved steps around it,
     interpolated (``"interpolated"``, the default), from the nearest one (``"nearest"``), or
     from the generated step (``"generated"``).
 
-    Returns the :class:`~cocomopl.ocp.refine.RefinedWalk` and its summary: per step the
-    solver's ``iterations``, whether it ``converged`` and the ``guess`` it started from,
-    ``iterations_median``, ``refine_s`` and ``raw_cost_ratio``, the torque cost ∫Στ²dt of the
-    generated walk as placed over the refined walk's.
+    Returns the :class:`~cocomopl.ocp.refine.RefinedWalk` and its
+    :class:`~cocomopl.results.RefineSummary`, whose ``raw_cost_ratio`` is the torque cost
+    ∫Στ²dt of the generated walk as placed over the refined walk's.
     """
     import statistics
 
@@ -237,80 +229,82 @@ def refine(motion: Motion, dataset_path: str | Path | None = None, progress: boo
     from cocomopl.ocp.refine import check_refinable, refine_walk, torque_cost
     from cocomopl.ocp.settings import OCPSettings
 
-    dataset_path = bundled_dataset_path(dataset_path, omni=not all(spec.straight for spec in motion.steps))
+    refinement = refinement or Refinement()
+    dataset_path = bundled_dataset_path(refinement.dataset, omni=not all(spec.straight for spec in motion.steps))
     dataset, attrs = read_motions(dataset_path, dataset=True)
     robot = load_robot(next(iter(dataset.values())).robot)
     check_refinable(motion, robot)
     gait_states = {m.steps[0].start_footstep.gait_key: np.concatenate([m.q[0], m.v[0]]) for m in dataset.values()
                    if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
-    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress, gait_states,
-                          warm_start_from, dataset)
+    refined = refine_walk(robot, motion, OCPSettings.from_saved(attrs["settings"]), progress=progress, gait_states=gait_states,
+                          warm_start_from=refinement.warm_start, solved=dataset)
     iterations = [row["iterations"] for row in refined.steps]
-    summary = {
-        "steps": [row["step"] for row in refined.steps],
-        "warm_start": warm_start_from,
-        "guess": [row["guess"] for row in refined.steps],
-        "iterations": iterations,
-        "converged": [row["converged"] for row in refined.steps],
-        "fallback": [row["fallback"] for row in refined.steps],
-        "cost": [row["cost"] for row in refined.steps],
-        "iterations_median": statistics.median(iterations),
-        "refine_s": refined.refine_s,
-        "raw_cost_ratio": torque_cost(motion) / torque_cost(refined.motion),
-        "dataset": Path(dataset_path).name,
-    }
+    summary = RefineSummary(
+        steps=[row["step"] for row in refined.steps],
+        warm_start=refinement.warm_start,
+        guess=[row["guess"] for row in refined.steps],
+        iterations=iterations,
+        converged=[row["converged"] for row in refined.steps],
+        fallback=[row["fallback"] for row in refined.steps],
+        cost=[row["cost"] for row in refined.steps],
+        iterations_median=statistics.median(iterations),
+        refine_s=refined.refine_s,
+        raw_cost_ratio=torque_cost(motion) / torque_cost(refined.motion),
+        dataset=Path(dataset_path).name,
+    )
     return refined, summary
 
 
-def walk_provenance(command: str | None, model_path: str | Path | None = None, omni: bool = False, **inputs) -> dict:
+def walk_provenance(command: str | None, model_path: str | Path | None = None, **inputs) -> dict:
     """The provenance of a file made from a generated walk: who made it, when, and the
-    model's (and any other input's) name and checksum; ``omni``: the model defaults to the
-    bundled omnidirectional one."""
-    return stamp(command, ("mujoco", "pin"), model=bundled_model_path(model_path, omni), **inputs)
+    model's (default: the bundled one) and any other input's name and checksum."""
+    return stamp(command, ("mujoco", "pin"), model=bundled_model_path(model_path), **inputs)
 
 
 def simulate_walk(
     robot: Robot,
     motion: Motion,
     settings: SimSettings = SimSettings(),
+    *,
     video: Path | None = None,
     progress: bool = False,
-    recovery=None,
-    reaiming=None,
+    replanner=None,
+    goals: Sequence[Goal] = (),
 ):
-    """Simulate ``motion`` in MuJoCo (:func:`rollout_of`) and measure it.
+    """Simulate ``motion`` in MuJoCo (:func:`rollout_of`, which draws the ``goals`` in its
+    video) and measure it.
 
     Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference
-    (the walk it ended up following, where ``recovery`` or ``reaiming`` replanned it).
+    (the walk it ended up following, where the ``replanner`` replanned it).
     """
     from cocomopl.analysis.metrics import summary
 
-    rollout = rollout_of(robot, motion, settings, video, progress, recovery, reaiming)
-    replanner = recovery or reaiming
+    rollout = rollout_of(robot, motion, settings, video=video, progress=progress, replanner=replanner, goals=goals)
     return rollout, summary(robot, rollout.measured, motion if replanner is None else replanner.motion)
 
 
-def simulation_record(measured: Motion) -> dict:
+def simulation_record(measured: Motion) -> SimulationRecord:
     """How a rollout was simulated, as its measured motion's metadata records it: the
     settings a report carries beside its figures."""
-    keys = ("stabilizer", "stabilizer_gains", "feedforward", "sim_model", "servos", "contact_time_constant_s",
-            "reference_cutoff_hz")
-    return {key: measured.meta[key] for key in keys}
+    return SimulationRecord(**{f: measured.meta[f] for f in SimulationRecord.__dataclass_fields__})
 
 
 def rollout_of(
     robot: Robot,
     motion: Motion,
     settings: SimSettings = SimSettings(),
+    *,
     video: Path | None = None,
     progress: bool = False,
-    recovery=None,
-    reaiming=None,
+    replanner=None,
+    goals: Sequence[Goal] = (),
 ):
     """The :class:`~cocomopl.sim.rollout.Rollout` of ``motion`` in MuJoCo as ``settings`` say
-    (:func:`~cocomopl.sim.rollout.simulate`); with ``video``, also rendered there (MP4);
-    ``recovery``: recovery by stepping (:func:`recovery_for`); ``reaiming``: footstep
-    re-aiming (:func:`reaiming_for`)."""
+    (:func:`~cocomopl.sim.rollout.simulate`); with ``video``, also rendered there (MP4), with
+    the motion's planned footsteps and the ``goals`` (x, y, yaw) drawn on the floor;
+    ``replanner``: recovery by stepping (:func:`recovery_for`) or footstep re-aiming
+    (:func:`reaiming_for`), a :class:`~cocomopl.sim.hooks.Replanner`."""
+    from cocomopl.analysis.footprint import planned_landings
     from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
     from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, simulate
     from cocomopl.sim.video import render_video
@@ -322,53 +316,41 @@ def rollout_of(
     cutoff = REFERENCE_CUTOFF_HZ if settings.reference_cutoff_hz is None else settings.reference_cutoff_hz
     rollout = simulate(sim, motion, stabilizer=settings.stabilizer, progress=progress, reference_cutoff_hz=cutoff,
                        gains=settings.gains, feedforward=settings.feedforward, servos=settings.servos,
-                       pushes=settings.pushes, recovery=recovery, reaiming=reaiming)
+                       pushes=settings.pushes, replanner=replanner)
     if video is not None:
-        render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress)
+        render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress,
+                     footsteps=planned_landings(robot, motion), goals=goals)
     return rollout
 
 
 def walk_report(
-    lengths: list[float] | None,
+    request: WalkRequest,
     out_dir: str | Path,
-    model_path: str | Path | None = None,
+    *,
     settings: SimSettings = SimSettings(),
     video: bool = True,
     progress: bool = False,
-    dt: float | None = None,
-    first_swing: str = "left",
-    strict: bool = False,
     command: str | None = None,
-    refine_steps: bool = False,
-    dataset: str | Path | None = None,
-    landings: Sequence[Landing] | None = None,
-    goal: Goal | Sequence[Goal] | None = None,
-    recover: bool = False,
-    reaim: bool | None = None,
-    warm_start_from: str = DEFAULT_WARM_START,
-) -> dict:
-    """The main job: generate a walk, simulate it, and write a report folder.
+) -> WalkReport:
+    """The main job: generate the walk of ``request``, simulate it, and write a report folder.
 
-    The walk is given by step ``lengths``, footstep ``landings`` or a ``goal`` pose (or
-    several), as in :func:`generate_walk`; with goals the report adds how far the simulated
-    robot's feet ended from the last (``final_position_error_m``, ``final_yaw_error_deg``).
+    The walk is generated (and refined, if the request asks so) by :func:`generate_walk`; the
+    refined walk is the one simulated, and the refinement's summary is ``refine`` in the
+    report.  For a walk to goals the report adds how far the simulated robot's feet ended
+    from the last (``final_position_error_m``, ``final_yaw_error_deg``).  The request's
+    replanner replans the walk as it runs: "recover", recovery by stepping, moves a landing
+    where a push the stabilizer cannot absorb needs it and generates the walk again
+    (:func:`recovery_for`; the report's ``recoveries``); "reaim", footstep re-aiming, aims
+    each step from the measured stance sole at its planned landing (:func:`reaiming_for`;
+    the report's ``reaimed``).  ``settings`` say how the walk is simulated
+    (:class:`SimSettings`).
 
-    With ``refine_steps`` the generated walk is refined by the OCPs of ``dataset`` (default:
-    the bundled one; :func:`refine`, warm-started as ``warm_start_from`` says) and the
-    refined walk is simulated; the summary is ``refine`` in the report.
     ``out_dir`` receives ``motions.h5`` (the generated and the measured motion),
-    ``metrics.json``, comparison plots (ZMP, contact forces, knee torques, leg joints),
+    ``metrics.json`` (the report's JSON), comparison plots (ZMP, contact forces, knee
+    torques, leg joints), ``footsteps.png`` (the landings, soles and goals from above),
     ``walk.mp4`` (unless ``video`` is False) and ``walk.html``, an interactive 3-D view,
     written as a unit (:func:`~cocomopl.motion_file.report_folder`): a run that fails or is
-    interrupted leaves the folder as it was.  ``dt``, ``first_swing`` and ``strict`` are
-    :func:`generate_walk`'s; ``settings`` say how the walk is simulated (:class:`SimSettings`).
-    With ``recover`` a push the stabilizer cannot absorb moves a landing and the walk is
-    generated again (:func:`recovery_for`; the report's ``recoveries``).  With ``reaim`` each
-    step is aimed from the measured stance sole at its planned landing (:func:`reaiming_for`;
-    the report's ``reaimed``); left ``None`` it is on for a walk to a ``goal`` that neither
-    refines nor recovers (a robot that walks to a goal aims its steps from where it stands)
-    and off otherwise.
-    Returns the metrics with the timings, the files written and their provenance.
+    interrupted leaves the folder as it was.
     """
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.analysis.viewer import write_html_viewer
@@ -376,78 +358,61 @@ def walk_report(
 
     started = time.perf_counter()
     # missing inputs are refused before anything is written
-    if recover and (refine_steps or not settings.stabilizer):
-        raise Error("recovery by stepping needs the stabilizer, and replans with the primitives: "
-                    "it cannot be combined with --no-stabilizer or --refine")
-    if reaim is None:
-        reaim = goal is not None and not refine_steps and not recover
-    if reaim and (refine_steps or recover):
-        raise Error("footstep re-aiming replans with the primitives: it cannot be combined with --refine or --recover")
-    omni = lengths is None
-    dataset = bundled_dataset_path(dataset, omni) if refine_steps else None
-    provenance = walk_provenance(command, model_path, omni, dataset=dataset)
-    with report_folder(out_dir, inputs=[bundled_model_path(model_path, omni)] + ([dataset] if dataset else [])) as work:
-        walk = generate_walk(lengths, model_path, dt, first_swing, strict, landings, goal)
-        planned, refined = {"generated": walk.motion}, None
-        if refine_steps:
-            refined_walk, refined = refine(walk.motion, dataset, progress, warm_start_from)
-            planned["refined"] = refined_walk.motion
-        recovery = recovery_for(walk, dt or PLAN_DT) if recover else None
-        reaiming = reaiming_for(walk, dt or PLAN_DT) if reaim else None
-        rollout, metrics = simulate_walk(walk.robot, planned["refined" if refine_steps else "generated"], settings,
-                                         work / "walk.mp4" if video else None, progress, recovery, reaiming)
-        if (recovery is not None and recovery.replanned) or (reaiming is not None and reaiming.reaimed):
-            planned["replanned"] = (recovery or reaiming).motion
+    if request.replanner == "recover" and not settings.stabilizer:
+        raise Error("recovery by stepping needs the stabilizer: it cannot be combined with --no-stabilizer")
+    provenance = walk_provenance(command, request.model_file(), dataset=request.dataset_file())
+    with report_folder(out_dir, inputs=request.inputs()) as work:
+        walk = generate_walk(request, progress=progress)
+        planned = {"generated": walk.motion} | ({"refined": walk.refined} if walk.refined is not None else {})
+        dt = request.dt or PLAN_DT
+        replanning = {"recover": recovery_for, "reaim": reaiming_for}.get(request.replanner)
+        replanner = replanning(walk, dt) if replanning else None
+        goals = request.path.poses if isinstance(request.path, Goals) else ()
+        rollout, metrics = simulate_walk(walk.robot, walk.planned, settings, video=work / "walk.mp4" if video else None,
+                                         progress=progress, replanner=replanner, goals=goals)
+        if replanner is not None and any(replanner.metadata().values()):
+            planned["replanned"] = replanner.motion
         motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
-        files += plot_comparison(walk.robot, motions, work)
-        title = f"cocomopl walk {walk_label(lengths, goal)}"
+        files += plot_comparison(walk.robot, motions, work, top_view=True, goals=goals)
+        title = f"cocomopl walk {request.path.label()}"
         files.append(write_html_viewer(walk.robot, rollout.measured, work / "walk.html", title=title))
         if video:
             files.append(work / "walk.mp4")
-        payload = {
-            **({"lengths_mm": [1000 * x for x in lengths]} if lengths is not None else {"footsteps": walk.motion.meta["footsteps"]}),
-            **(goal_errors(walk.robot, rollout.measured, goal_list(goal)) if goal is not None else {}),
-            "steps": [s.spec.name for s in walk.steps],
-            **simulation_record(rollout.measured),
-            "pushes": rollout.measured.meta["pushes"],
-            **({"recoveries": rollout.measured.meta["recoveries"]} if recover else {}),
-            "reaim": reaim,
-            **({"reaimed": rollout.measured.meta["reaimed"]} if reaim else {}),
-            **metrics,
-            "generation_s": walk.generation_s,
-            "placement_s": walk.placement_s,
-            "dynamics_filter_zmp_error_m": walk.motion.meta["plan_zmp_error_m"],
-            "warnings": walk.warnings,
-            **({"refine": refined} if refined else {}),
-            "files": _report_files(out_dir, files, "metrics.json"),
-            "provenance": provenance,
-        }
-        payload["wall_time_s"] = time.perf_counter() - started
-        write_json(work / "metrics.json", payload)
-    return payload
-
-
-def goal_list(goal: Goal | Sequence[Goal]) -> list[Goal]:
-    """One goal pose (x, y, yaw) or a sequence of them, as a list of poses."""
-    return [tuple(goal)] if np.ndim(goal) == 1 else [tuple(g) for g in goal]
-
-
-def walk_label(lengths: Sequence[float] | None, goal: Goal | Sequence[Goal] | None) -> str:
-    """How a walk was asked for, in a line: its lengths, its goals, or footsteps."""
-    if lengths is not None:
-        return ",".join(f"{1000 * x:g}" for x in lengths) + " mm"
-    if goal is not None:
-        return "to " + " then ".join(f"{g[0]:g} m, {g[1]:g} m, {math.degrees(g[2]):g} deg" for g in goal_list(goal))
-    return "on footsteps"
+        straight = isinstance(request.path, StraightSteps)
+        meta = rollout.measured.meta
+        report = WalkReport(
+            label=request.path.label(),
+            folder=str(Path(out_dir)),
+            lengths_mm=[1000 * x for x in request.path.lengths] if straight else None,
+            footsteps=None if straight else walk.motion.meta["footsteps"],
+            goal=goal_errors(walk.robot, rollout.measured, request.path.poses) if isinstance(request.path, Goals) else None,
+            steps=[s.spec.name for s in walk.steps],
+            simulation=simulation_record(rollout.measured),
+            pushes=meta["pushes"],
+            recoveries=meta["recoveries"] if request.replanner == "recover" else None,
+            reaim=request.replanner == "reaim",
+            reaimed=meta["reaimed"] if request.replanner == "reaim" else None,
+            metrics=metrics,
+            generation_s=walk.generation_s,
+            placement_s=walk.placement_s,
+            dynamics_filter_zmp_error_m=walk.motion.meta["plan_zmp_error_m"],
+            warnings=walk.warnings,
+            refine=walk.refinement,
+            files=_report_files(out_dir, files, "metrics.json"),
+            provenance=provenance,
+        )
+        report.wall_time_s = time.perf_counter() - started
+        write_json(work / "metrics.json", report.to_json())
+    return report
 
 
 def _pose(goal: Goal) -> dict:
     return {"x_m": goal[0], "y_m": goal[1], "yaw_deg": math.degrees(goal[2])}
 
 
-def goal_errors(robot: Robot, motion: Motion, goals: list[Goal]) -> dict:
+def goal_errors(robot: Robot, motion: Motion, goals: Sequence[Goal]) -> GoalErrors:
     """The goals, and the distance (m) and heading error (deg) of the feet's midpoint at the
     end of ``motion`` from the last: ``goal``, and ``waypoints`` where the walk stopped before it."""
     soles = {}
@@ -455,12 +420,12 @@ def goal_errors(robot: Robot, motion: Motion, goals: list[Goal]) -> dict:
         M = robot.frame_placement(motion.q[-1], robot.foot_frames[side])
         soles[side] = np.array([M.translation[0], M.translation[1], math.atan2(M.rotation[1, 0], M.rotation[0, 0])])
     end, goal = midpoint(soles), goals[-1]
-    return {
-        "goal": _pose(goal),
-        **({"waypoints": [_pose(g) for g in goals[:-1]]} if len(goals) > 1 else {}),
-        "final_position_error_m": float(np.hypot(end[0] - goal[0], end[1] - goal[1])),
-        "final_yaw_error_deg": abs(math.degrees(wrap_angle(end[2] - goal[2]))),
-    }
+    return GoalErrors(
+        goal=_pose(goal),
+        waypoints=[_pose(g) for g in goals[:-1]] if len(goals) > 1 else None,
+        final_position_error_m=float(np.hypot(end[0] - goal[0], end[1] - goal[1])),
+        final_yaw_error_deg=abs(math.degrees(wrap_angle(end[2] - goal[2]))),
+    )
 
 
 def _refuse_failing_dataset(robot, path, dataset: dict, attrs: dict) -> None:
@@ -469,7 +434,7 @@ def _refuse_failing_dataset(robot, path, dataset: dict, attrs: dict) -> None:
 
     settings = attrs["settings"]
     signals = {name: s["values"] for name, s in attrs["signals"].items()}
-    report = check_dataset(robot, dataset, float(settings["friction"]), float(settings["dt"]), signals)
+    report = check_dataset(robot, dataset, float(settings["friction"]), dt=float(settings["dt"]), signals=signals)
     if not report["ok"]:
         key = report["failures"][0]
         raise Error(f"{path}: fails 'cocomopl dataset check' ({key} {report['worst'][key]:.4g} in "
@@ -480,11 +445,12 @@ def reproduce_report(
     out_dir: str | Path,
     model_path: str | Path | None = None,
     dataset_path: str | Path | None = None,
+    *,
     progress: bool = False,
     settings: SimSettings = SimSettings(),
     command: str | None = None,
     kajita_variant: str = "two-stage",
-) -> dict:
+) -> ReproduceReport:
     """The paper's experiment (sec. V): M_gen from the primitives, M_gen refined by the OCPs
     of the dataset at ``dataset_path`` (:func:`refine`), M_opt from chained OCPs (that
     dataset's steps, and the transitions it lacks solved here) and the Kajita baseline (``kajita_variant``, :func:`kajita_for`) on M_gen's footsteps and
@@ -492,8 +458,8 @@ def reproduce_report(
     over the same walking window (:mod:`cocomopl.analysis.comparison`); the analogue of
     Table I (mean torques) and of Figs. 6, 8 and 9.
 
-    ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` with
-    every metric, and the comparison PNGs, written as a unit as :func:`walk_report`'s; the
+    ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` (the
+    report's JSON, every metric), and the comparison PNGs, written as a unit as :func:`walk_report`'s; the
     model and dataset default to the bundled ones.  ``settings`` say how the walks are
     simulated (:class:`SimSettings`), always with the stabilizer and each walk's tuned gains.
     """
@@ -504,18 +470,19 @@ def reproduce_report(
     dataset_path = bundled_dataset_path(dataset_path)
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
-        robot, planned, simulated, payload = _paper_experiment(model_path, dataset_path, progress, settings, kajita_variant)
-        payload["provenance"] = provenance
+        robot, planned, simulated, figures = _paper_experiment(model_path, dataset_path, progress=progress,
+                                                              settings=settings, kajita_variant=kajita_variant)
+        report = ReproduceReport(folder=str(Path(out_dir)), **figures, provenance=provenance)
         motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
                    for name, m in by_name.items()}
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": robot.name, "producer": "cocomopl reproduce", **provenance})
         compared = {"MP planned": planned["MP"], **{f"{name} simulated": m for name, m in simulated.items()}}
         files += plot_comparison(robot, compared, work)
-        payload["files"] = _report_files(out_dir, files, "table1.json")
-        payload["wall_time_s"] = time.perf_counter() - started
-        write_json(work / "table1.json", payload)
-    return payload
+        report.files = _report_files(out_dir, files, "table1.json")
+        report.wall_time_s = time.perf_counter() - started
+        write_json(work / "table1.json", report.to_json())
+    return report
 
 
 def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
@@ -535,10 +502,10 @@ def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
     if variant == "two-stage":
         settings = dataclasses.replace(settings, swing_height=float(np.mean(swing_heights(walk.robot, walk.motion))))
     durations = [np.diff(s.phase_edges) for s in walk.steps]
-    return kajita_walk(walk.robot, [s.spec for s in walk.steps], durations, dt=PLAN_DT, settings=settings)
+    return kajita_walk(walk.robot, [s.spec for s in walk.steps], durations=durations, dt=PLAN_DT, settings=settings)
 
 
-def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool = False,
+def simulate_compared(robot: Robot, planned: dict[str, Motion], *, progress: bool = False,
                       settings: SimSettings = SimSettings(), gains: dict | None = None,
                       window: tuple[float, float] | None = None) -> tuple[dict, dict, tuple[float, float]]:
     """Simulate each of the ``planned`` walks with the stabilizer, otherwise as ``settings``
@@ -561,30 +528,31 @@ def simulate_compared(robot: Robot, planned: dict[str, Motion], progress: bool =
         rollout = rollout_of(robot, motion, walk_settings, progress=progress)
         # the simulator's clock starts at the plan's first sample
         simulated[name] = dataclasses.replace(rollout.measured, t=rollout.measured.t + motion.t[0])
-    return simulated, window_figures(robot, planned, simulated, window), window
+    return simulated, window_figures(robot, planned, simulated, window=window), window
 
 
-def _paper_experiment(model_path, dataset_path: Path, progress: bool, settings: SimSettings,
+def _paper_experiment(model_path, dataset_path: Path, *, progress: bool, settings: SimSettings,
                       kajita_variant: str = "two-stage") -> tuple[Robot, dict, dict, dict]:
     """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "refined"
-    (M_gen refined by optimal control), "OC", "Kajita") and the summary without provenance, files and wall time."""
+    (M_gen refined by optimal control), "OC", "Kajita") and the :class:`~cocomopl.results.ReproduceReport`'s
+    figures (all but provenance, files and wall time)."""
     from cocomopl.analysis.comparison import per_measure
     from cocomopl.motion_file import load_robot, read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
 
     dataset, attrs = read_motions(dataset_path, dataset=True, signals=True)
     _refuse_failing_dataset(load_robot(next(iter(dataset.values())).robot), dataset_path, dataset, attrs)
-    walk = generate_walk(list(M_GEN), model_path)
+    walk = generate_walk(WalkRequest(StraightSteps(M_GEN), model=model_path))
     robot = walk.robot
     if robot.name != next(iter(dataset.values())).robot:
         raise Error(f"the model is for robot {robot.name!r} and the dataset {dataset_path} for another")
     solve_started = time.perf_counter()
-    m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, attrs["settings"], progress=progress)
+    m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, settings=attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
-    refined, refine_summary = refine(walk.motion, dataset_path, progress)
+    refined, refine_summary = refine(walk.motion, Refinement(dataset_path), progress=progress)
     kajita = kajita_for(walk, kajita_variant)
     planned = {"MP": walk.motion, "refined": refined.motion, "OC": m_opt, "Kajita": kajita}
-    simulated, figures, window = simulate_compared(robot, planned, progress, settings)
+    simulated, figures, window = simulate_compared(robot, planned, progress=progress, settings=settings)
     table = {}
     for name, label in (("OC", "OC planned (joint torques)"), ("MP", "MP planned (inverse dynamics)"),
                         ("refined", "refined planned (joint torques)"), ("Kajita", "Kajita planned (inverse dynamics)")):

@@ -28,7 +28,7 @@ def require(condition: bool, message: str) -> None:
         raise Error(message)
 
 
-def check_array(name: str, value: np.ndarray, kind: str, shape: tuple) -> np.ndarray:
+def check_array(name: str, value: np.ndarray, kind: str, *, shape: tuple) -> np.ndarray:
     """``value`` if its dtype kind is one of ``kind`` ("f" float, "i" integer, "b" bool) and
     its shape matches ``shape`` (None matches any length); else :class:`Error`."""
     value = np.asarray(value)
@@ -50,7 +50,7 @@ def check_finite(name: str, value: np.ndarray) -> None:
         raise Error(f"array {name!r} holds {int(bad.sum())} NaN or infinite value(s), the first {value[index]} at {index}")
 
 
-def check_indices(name: str, value: np.ndarray, n: int, increasing: bool = True) -> None:
+def check_indices(name: str, value: np.ndarray, n: int, *, increasing: bool = True) -> None:
     """``value`` are sample indices in ``0 .. n-1``, strictly increasing if ``increasing``."""
     if value.size:
         require(value.min() >= 0 and value.max() < n, f"{name} {value.tolist()} are not all sample indices 0..{n - 1}")
@@ -103,13 +103,13 @@ def check_motion(motion: Motion, robot=None, finite: bool = True) -> None:
     names = motion.joint_names
     require(isinstance(names, list) and all(isinstance(x, str) for x in names), "joint_names is not a list of names")
     nu = len(names)
-    t = check_array("t", motion.t, "f", (None,))
+    t = check_array("t", motion.t, "f", shape=(None,))
     n = len(t)
     shapes = {"q": (n, 7 + nu), "v": (n, 6 + nu), "tau": (n, nu), "wrenches": (n, 2, 6), "zmp": (n, 3)}
-    arrays = {key: check_array(key, getattr(motion, key), "f", shape) for key, shape in shapes.items()}
-    check_array("contact", motion.contact, "b", (n, 2))
-    impacts = check_array("impacts", motion.impacts, "i", (None,))
-    starts = check_array("step_starts", motion.step_starts, "i", (len(motion.steps),))
+    arrays = {key: check_array(key, getattr(motion, key), "f", shape=shape) for key, shape in shapes.items()}
+    check_array("contact", motion.contact, "b", shape=(n, 2))
+    impacts = check_array("impacts", motion.impacts, "i", shape=(None,))
+    starts = check_array("step_starts", motion.step_starts, "i", shape=(len(motion.steps),))
     if robot is not None:
         require(motion.robot == robot.name, f"the motion is for robot {motion.robot!r}, not {robot.name!r}")
         require(names == list(robot.joint_names), f"its joint names are not {robot.name}'s {nu}-joint order")
@@ -139,10 +139,10 @@ def check_motion(motion: Motion, robot=None, finite: bool = True) -> None:
 def check_signals(signals: dict, n_signals: int | None = None, finite: bool = True) -> int:
     """Refuse training signals that are not ``values`` (n, I), ``t`` and ``phase_time`` (n,)
     increasing, ``names`` (I,); returns I.  ``n_signals``: the I of the other motions."""
-    values = check_array("signals/values", signals["values"], "f", (None, n_signals))
+    values = check_array("signals/values", signals["values"], "f", shape=(None, n_signals))
     n, count = values.shape
-    t = check_array("signals/t", signals["t"], "f", (n,))
-    phase_time = check_array("signals/phase_time", signals["phase_time"], "f", (n,))
+    t = check_array("signals/t", signals["t"], "f", shape=(n,))
+    phase_time = check_array("signals/phase_time", signals["phase_time"], "f", shape=(n,))
     require(len(signals["names"]) == count, f"signals/names has {len(signals['names'])} names for {count} signals")
     if finite:
         for key, value in (("signals/values", values), ("signals/t", t), ("signals/phase_time", phase_time)):

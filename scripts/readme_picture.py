@@ -2,8 +2,8 @@
 
 The default walk (``M_GEN``, steps of 150 to 390 mm) is generated from the bundled
 primitives and simulated with the stabiliser, as ``cocomopl walk`` does.  The frames are
-one stride, the two steps in the middle of the walk, seen by the camera of ``walk.mp4``
-(it follows the pelvis; the robot walks to the right), side by side.  Takes about 35 s on
+one stride, the two steps in the middle of the walk, seen from the side by a camera that
+follows the pelvis (``render_frames``' side view; the robot walks to the right), side by side.  Takes about 35 s on
 two cores, most of it the simulation.
 
 Usage: ``python scripts/readme_picture.py [--out docs/walk.png]``
@@ -21,6 +21,7 @@ from cocomopl.data import BUNDLED_MODEL
 from cocomopl.gait import M_GEN
 from cocomopl.motion import Motion
 from cocomopl.pipeline import generate_walk, rollout_of
+from cocomopl.requests import StraightSteps, WalkRequest
 from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.video import render_frames
 
@@ -49,7 +50,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("docs/walk.png"), help="PNG to write (default: %(default)s)")
     args = parser.parse_args()
 
-    walk = generate_walk(list(M_GEN), BUNDLED_MODEL)
+    walk = generate_walk(WalkRequest(StraightSteps(M_GEN), model=BUNDLED_MODEL))
     rollout = rollout_of(walk.robot, walk.motion)
     if rollout.fell:
         raise SystemExit(f"the default walk fell at {rollout.fall_time:.2f} s: no picture made")
@@ -57,7 +58,7 @@ def main() -> None:
     indices = np.clip(np.searchsorted(rollout.measured.t, times), 0, len(rollout.measured.t) - 1)
     # rollout_of's model has no meshes; this one has, for rendering
     sim = build_sim_model(walk.robot, visuals=True)
-    frames = list(render_frames(sim, rollout.qpos[indices], FRAME_SIZE))
+    frames = list(render_frames(sim, rollout.qpos[indices], size=FRAME_SIZE, side_view=True))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     imageio.imwrite(args.out, filmstrip(frames, GAP), optimize=True)
     print(f"wrote {args.out}: {len(frames)} frames, {args.out.stat().st_size / 1024:.0f} KB")

@@ -106,3 +106,26 @@ def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=No
         robot=robot.name,
         meta=meta or {},
     )
+
+
+@pytest.fixture(scope="session")
+def standing(robot):
+    """``standing(seconds)``: a motion standing still for ``seconds`` on both soles, side by
+    side at the robot's foot separation."""
+    from cocomopl.gait import foot_separation
+    from cocomopl.kinematics import double_support_posture
+
+    y = foot_separation(robot)
+    q = double_support_posture(robot, (0.0, y / 2), (0.0, -y / 2))
+
+    def motion(seconds: float) -> Motion:
+        n = 2
+        return Motion(
+            t=np.array([0.0, seconds]), q=np.stack([q] * n), v=np.zeros((n, robot.model.nv)),
+            tau=np.zeros((n, robot.nu)), wrenches=np.zeros((n, 2, 6)), contact=np.ones((n, 2), bool),
+            zmp=np.zeros((n, 3)), phases=[("ds", 0, 1)], impacts=np.zeros(0, int), steps=[],
+            step_starts=np.zeros(0, int), joint_names=list(robot.joint_names), robot=robot.name,
+            meta={"producer": "test"},
+        )
+
+    return motion

@@ -203,3 +203,77 @@ def test_bad_simulation_models_and_servo_settings(tmp_path, monkeypatch, option,
     result = run_cli("simulate", str(BUNDLED_DATASET), "--motion", "start_250_L", *option, "--out", "m.h5")
     assert_one_line_error(result, *words)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.xml"]
+
+
+# ---------------------------------------------------------------------------- values that start with a minus sign
+def test_a_negative_value_is_a_value_not_an_option():
+    import math
+
+    from cocomopl.cli import build_parser
+    from cocomopl.options import negative_values_joined
+
+    parser = build_parser()
+    argv = ["walk", "--to", "-0.6,0.3,45", "--to", "-.5,-1,-90", "--json", "--lengths-mm", "-x"]
+    assert negative_values_joined(parser, argv) == ["walk", "--to=-0.6,0.3,45", "--to=-.5,-1,-90", "--json",
+                                                    "--lengths-mm", "-x"]  # "-x" is no number: left to argparse
+    args = parser.parse_args(negative_values_joined(parser, ["walk", "--to", "-0.6,0.3,45"]))
+    assert args.to == [(-0.6, 0.3, math.radians(45))]
+
+
+def test_a_negative_length_gets_the_same_line_as_written_with_an_equals_sign(tmp_path):
+    spaced = run_cli("generate", "--lengths-mm", "-250,250,250", "--out", str(tmp_path / "w.h5"))
+    joined = run_cli("generate", "--lengths-mm=-250,250,250", "--out", str(tmp_path / "w.h5"))
+    assert_one_line_error(spaced, "'-250'", "positive")
+    assert spaced.stderr == joined.stderr and spaced.returncode == joined.returncode == 2
+    assert list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------------------- help, robot names
+def test_help_never_breaks_an_anchor_or_a_path(capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "80")  # argparse wraps to the terminal's width
+    for command in (["walk"], ["generate"], ["dataset", "generate"], ["simulate", "x.h5"], ["refine", "x.h5"]):
+        with pytest.raises(SystemExit):
+            main([*command, "--help"])
+        lines = capsys.readouterr().out.splitlines()
+        assert not [line for line in lines if line.rstrip().endswith("-") and not line.rstrip().endswith(" -")], command
+    with pytest.raises(SystemExit):
+        main(["walk", "--help"])
+    assert "docs/method.md#footstep-planner" in capsys.readouterr().out
+
+
+def test_robot_names_are_case_insensitive(tmp_path):
+    result = run_cli("dataset", "generate", "--robot", "TALOS", "--lengths-mm", "150,700", "--out", str(tmp_path / "d.h5"))
+    assert_one_line_error(result, "700 mm", "beyond talos's reach")  # Talos, not an unknown robot
+    assert list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------------------- Ctrl-C while the libraries load
+INTERRUPTED_AT_IMPORT = """
+import builtins, os, runpy, signal, sys
+
+real_import = builtins.__import__
+
+
+def interrupting_import(name, *args, **kwargs):
+    if name == {module!r}:
+        builtins.__import__ = real_import
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C, delivered while the module loads
+    return real_import(name, *args, **kwargs)
+
+
+builtins.__import__ = interrupting_import
+sys.argv = ["cocomopl", "generate", "--out", {out!r}]
+runpy.run_module("cocomopl", run_name="__main__", alter_sys=True)
+"""
+
+
+@pytest.mark.parametrize("module", ["argparse", "numpy", "cocomopl.pipeline"])
+def test_ctrl_c_while_the_libraries_load_is_one_line(tmp_path, module):
+    import subprocess
+
+    out = tmp_path / "walk.h5"
+    code = INTERRUPTED_AT_IMPORT.format(module=module, out=str(out))
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 130, result.stderr
+    assert result.stderr == "cocomopl: interrupted\n"
+    assert list(tmp_path.iterdir()) == []

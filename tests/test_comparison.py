@@ -46,7 +46,7 @@ def test_the_window_is_where_all_walks_walk(walks):
 def test_every_walk_is_measured_over_the_same_window(robot, walks):
     window = common_window(walks)
     # the plans stand in for their rollouts: what is measured is the window, not the simulator
-    figures = window_figures(robot, walks, walks, window)
+    figures = window_figures(robot, walks, walks, window=window)
     for name, motion in walks.items():
         inside = metrics.windowed(motion, *window)
         assert figures[name]["duration_s"] == pytest.approx(window[1] - window[0])
@@ -61,7 +61,7 @@ def test_every_walk_is_measured_over_the_same_window(robot, walks):
 
 
 def test_per_measure_says_which_walk_is_lower():
-    figures = {"A": {m: 1.0 for m in MEASURES}, "B": {m: 2.0 for m in MEASURES}}
+    figures = {"A": dict.fromkeys(MEASURES, 1.0), "B": dict.fromkeys(MEASURES, 2.0)}
     figures["A"]["peak_force_over_weight"] = 3.0
     out = per_measure(figures, "A", "B")
     assert out["mean_torque"] == {"A": 1.0, "B": 2.0, "lower": "A", "relative_difference": -0.5}

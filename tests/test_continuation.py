@@ -9,25 +9,19 @@ import numpy as np
 import pytest
 
 from cocomopl.dataset import generate as module
-from cocomopl.dataset.generate import JobResult, _solve_by_continuation
+from cocomopl.dataset.generate import JobResult, solve_by_continuation
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.ocp.settings import OCPSettings
 
 
-class InlineExecutor:
+class InlineExecutor(cf.Executor):
     """Runs each job at once, in this process."""
 
-    def submit(self, fn, *args):
+    def submit(self, fn, /, *args, **kwargs):
         future = cf.Future()
-        future.set_result(fn(*args))
+        future.set_result(fn(*args, **kwargs))
         return future
-
-    as_completed = staticmethod(cf.as_completed)
-
-    @staticmethod
-    def result(future):
-        return future.result()
 
 
 class FakeMotion:
@@ -41,7 +35,7 @@ def test_each_sweep_continues_from_its_last_walk_and_each_length_keeps_the_cheap
 
     def fake_length_job(robot_name, settings, length, kinds, cyclic=None, neighbour_walk=None):
         calls.append((length, None if neighbour_walk is None else float(neighbour_walk[0])))
-        seen = sum(1 for L, _ in calls if L == length)  # 1 in the first sweep to reach it, 2 in the other
+        seen = sum(1 for L, _ in calls if length == L)  # 1 in the first sweep to reach it, 2 in the other
         cost = {0.15: (1.0, 2.0), 0.2: (3.0, 1.0), 0.25: (5.0, 5.5)}[length][seen - 1]
         q = np.full((4, 10), cost)
         return JobResult(motions={StepSpec("cyclic", length, length): FakeMotion(cost, q)}, walk=np.array([length]))
@@ -49,7 +43,7 @@ def test_each_sweep_continues_from_its_last_walk_and_each_length_keeps_the_cheap
     monkeypatch.setattr(module, "length_job", fake_length_job)
     kept = []
     todo = {L: ["cyclic"] for L in (0.15, 0.2, 0.25)}
-    record = _solve_by_continuation(InlineExecutor(), "talos", OCPSettings(), todo, {}, kept.append)
+    record = solve_by_continuation(InlineExecutor(), "talos", OCPSettings(), todo=todo, done={}, collect=kept.append)
 
     # every length after a sweep's first is warm-started from the length solved before it in that sweep
     assert (0.15, None) in calls and (0.25, None) in calls
@@ -73,7 +67,8 @@ def test_a_single_length_is_solved_once(monkeypatch):
         return JobResult(motions={StepSpec("cyclic", length, length): FakeMotion(1.0, np.zeros((2, 8)))})
 
     monkeypatch.setattr(module, "length_job", fake_length_job)
-    record = _solve_by_continuation(InlineExecutor(), "talos", OCPSettings(), {0.2: ["cyclic"]}, {}, lambda r: None)
+    record = solve_by_continuation(InlineExecutor(), "talos", OCPSettings(), todo={0.2: ["cyclic"]}, done={},
+                                   collect=lambda result: None)
     assert calls == [0.2]
     assert record["200"]["chosen"] == "ascending"
 

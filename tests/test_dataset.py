@@ -5,7 +5,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import h5py
 import numpy as np
@@ -141,7 +140,9 @@ def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
 def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset, robot):
     """A run killed (SIGKILL) while it solves leaves the steps saved before it untouched and
     writes no dataset; the same run again reuses them and solves only the rest.  The saved
-    steps are the small dataset's cyclic and stop steps, as a killed earlier run leaves them."""
+    steps are the small dataset's cyclic and stop steps, as a killed earlier run leaves them.
+    The first run is killed once it has submitted the start step's OCP (its pool's ``submit``
+    says so), and it cannot save a part before the kill (its ``write_part`` waits forever)."""
     from cocomopl.dataset.generate import part_attrs, write_part
 
     out = tmp_path / "resume.h5"
@@ -150,25 +151,31 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset, 
     solved, _ = read_motions(small_dataset)
     names = [f"{kind}_{SMALL_LENGTH * 1000:g}_L" for kind in ("cyclic", "stop")]
     for name in names:
-        write_part(parts, solved[name].steps[0], solved[name], part_attrs(SMALL, robot))
+        write_part(parts, solved[name].steps[0], solved[name], attrs=part_attrs(SMALL, robot))
     saved = {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")}
     # the small dataset's settings (its phase durations are no CLI options), as the CLI calls it
-    script = ("import json, sys; from cocomopl.dataset.generate import generate; from cocomopl.ocp.settings import "
-              "OCPSettings; print(json.dumps(generate(sys.argv[1], (float(sys.argv[2]),), settings=OCPSettings("
+    script = ("import json, sys, threading; from cocomopl.dataset import generate as g; from cocomopl.ocp.settings "
+              "import OCPSettings\n"
+              "submit = g.cf.ProcessPoolExecutor.submit\n"
+              "def submitted(*args, **kwargs):\n    future = submit(*args, **kwargs)\n"
+              "    print('an OCP submitted', file=sys.stderr, flush=True)\n    return future\n"
+              "if sys.argv[4:] == ['hold']:\n    g.cf.ProcessPoolExecutor.submit = submitted\n"
+              "    g.write_part = lambda *args, **kwargs: threading.Event().wait()\n"
+              "print(json.dumps(g.generate(sys.argv[1], (float(sys.argv[2]),), settings=OCPSettings("
               "**json.loads(sys.argv[3])), workers=1, command='cocomopl dataset generate (test)')))")
     cmd = [sys.executable, "-c", script, str(out), str(SMALL_LENGTH), json.dumps(SMALL.as_dict())]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    proc = subprocess.Popen([*cmd, "hold"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
     progress = b""
-    while b"elapsed" not in progress:  # the progress bar is up: the OCPs are being solved
+    while b"an OCP submitted" not in progress:
         chunk = os.read(proc.stderr.fileno(), 4096)
-        assert chunk, "the first run ended before it started solving"
+        assert chunk, "the first run ended before it submitted an OCP: " + progress.decode(errors="replace")
         progress += chunk
-    time.sleep(2.0)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     assert not out.exists()
     assert {p.name: p.stat().st_mtime_ns for p in parts.glob("*.h5")} == saved  # untouched, nothing half-written
-    result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    result = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)
     assert (summary["reused"], summary["solved"], summary["failed"]) == (2, 1, [])
     # progress names each OCP as it finishes, on stderr, so stdout stays one JSON object
@@ -192,7 +199,7 @@ def test_dask_cluster_path(tmp_path, small_dataset, robot, capsys):
     solved, _ = read_motions(small_dataset)
     cyclic, stop = (solved[f"{kind}_{SMALL_LENGTH * 1000:g}_L"] for kind in ("cyclic", "stop"))
     for spec, motion in ((cyclic.steps[0], cyclic), (stop.steps[0], stop), (StepSpec("start", 0.0, SMALL_LENGTH), cyclic)):
-        write_part(parts, spec, motion, part_attrs(SMALL, robot))
+        write_part(parts, spec, motion, attrs=part_attrs(SMALL, robot))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         summary = generate(out, (SMALL_LENGTH,), settings=SMALL, scheduler=cluster.scheduler_address, progress=False)
     assert f"cocomopl: warning: not reusing {parts / 'start_200_L.h5'}: it holds cyclic_200_L\n" in capsys.readouterr().err

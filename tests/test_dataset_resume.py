@@ -18,6 +18,8 @@ from cocomopl.dataset.generate import (
     check_dt,
     check_workers,
     generate,
+    job_executor,
+    job_result,
     max_workers,
     part_attrs,
     write_part,
@@ -98,7 +100,7 @@ def _assert_warned(capsys, part, *words) -> None:
 
 def test_a_sound_part_is_reused(tmp_path, small_dataset, robot, capsys):
     motions, _ = read_motions(small_dataset)
-    write_part(tmp_path, CYCLIC, motions[CYCLIC.name], part_attrs(SMALL, robot))
+    write_part(tmp_path, CYCLIC, motions[CYCLIC.name], attrs=part_attrs(SMALL, robot))
     reused = _finished_part(tmp_path / "cyclic_200_L.h5", CYCLIC, part_attrs(SMALL, robot), robot)
     np.testing.assert_array_equal(reused.q, motions[CYCLIC.name].q)
     assert capsys.readouterr().err == ""
@@ -121,7 +123,7 @@ def test_a_part_that_is_not_its_step_is_solved_again(tmp_path, small_dataset, ro
 def test_a_damaged_part_is_solved_again(tmp_path, small_dataset, robot, capsys, damage):
     motions, _ = read_motions(small_dataset)
     part = tmp_path / "cyclic_200_L.h5"
-    write_part(tmp_path, CYCLIC, motions[CYCLIC.name], part_attrs(SMALL, robot))
+    write_part(tmp_path, CYCLIC, motions[CYCLIC.name], attrs=part_attrs(SMALL, robot))
     if damage == "not HDF5":  # as a kill during a copy leaves it
         part.write_bytes(b"not HDF5")
     else:
@@ -147,17 +149,17 @@ def test_no_converged_ocp_writes_nothing(tmp_path):
 @pytest.mark.parametrize("stop", [KeyboardInterrupt, RuntimeError], ids=["interrupted", "failed"])
 def test_an_interrupted_run_keeps_its_parts_but_no_empty_folder(tmp_path, small_dataset, robot, monkeypatch, saved, stop):
     """The run stops as it submits its first OCP (Ctrl-C, or a failure)."""
-    from cocomopl.dataset import generate as module
+    import concurrent.futures as cf
 
-    def interrupt(*args):
+    def interrupt(*args, **kwargs):
         raise stop
 
-    monkeypatch.setattr(module.Executor, "submit", interrupt)
+    monkeypatch.setattr(cf.ProcessPoolExecutor, "submit", interrupt)
     out, parts = tmp_path / "d.h5", tmp_path / "d.h5.parts"
     if saved:
         solved, _ = read_motions(small_dataset)
         for spec in (CYCLIC, STOP):
-            write_part(parts, spec, solved[spec.name], part_attrs(SMALL, robot))
+            write_part(parts, spec, solved[spec.name], attrs=part_attrs(SMALL, robot))
     before = {p.name: p.stat().st_mtime_ns for p in parts.glob("*")}
     with pytest.raises(stop):
         generate(out, (SMALL_LENGTH,), settings=SMALL, workers=1, progress=False)
@@ -206,11 +208,21 @@ def test_a_solver_process_that_dies_is_an_error_not_a_traceback():
     """A worker killed in compiled code (a C++ exception's terminate, the out-of-memory killer)."""
     import os
 
-    from cocomopl.dataset.generate import Executor
+    with job_executor(1, None) as executor, pytest.raises(Error, match=r"a solver process died .*run the same "
+                                                                        "command again to resume"):
+        job_result(executor.submit(os._exit, 1))
 
-    executor = Executor(1, None)
-    try:
-        with pytest.raises(Error, match="a solver process died .*run the same command again to resume"):
-            executor.result(executor.submit(os._exit, 1))
-    finally:
-        executor.close()
+
+@pytest.mark.slow  # a local cluster started, its worker killed and restarted: 10-20 s
+def test_a_dask_worker_that_dies_is_an_error_not_a_traceback():
+    """On a cluster, a job whose worker dies more often than Dask retries it (here: at once)."""
+    import os
+
+    import dask
+
+    distributed = pytest.importorskip("dask.distributed")
+    with (dask.config.set({"distributed.scheduler.allowed-failures": 0}),
+          distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+          job_executor(1, cluster.scheduler_address) as executor,
+          pytest.raises(Error, match=r"a solver process died .*run the same command again to resume")):
+        job_result(executor.submit(os._exit, 1))

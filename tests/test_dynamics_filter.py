@@ -26,8 +26,8 @@ def test_legs_reach_their_sole_targets(robot):
     targets = {}
     for side, frame in robot.foot_frames.items():
         placement = robot.frame_placement(q, frame)
-        targets[side] = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.05, 0.02), placement.translation + [0.04, 0.01, 0.02])
-    moved = place_legs(robot, q, targets, leg_joints(robot))
+        targets[side] = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.05, 0.02), placement.translation + np.array([0.04, 0.01, 0.02]))
+    moved = place_legs(robot, q, targets, legs=leg_joints(robot))
     for side, frame in robot.foot_frames.items():
         error = pin.log6(targets[side].actInv(robot.frame_placement(moved, frame))).vector
         assert np.abs(error).max() < 1e-6
@@ -44,10 +44,10 @@ def test_under_the_filters_height_weight_a_far_footstep_is_reached(robot):
     # the right sole asked 0.45 m forward of the left: only a sinking pelvis gets it there
     q = robot.q_ref.copy()
     targets = {side: robot.frame_placement(q, frame) for side, frame in robot.foot_frames.items()}
-    targets["right"] = pin.SE3(targets["right"].rotation, targets["right"].translation + [0.45, 0.0, 0.0])
+    targets["right"] = pin.SE3(targets["right"].rotation, targets["right"].translation + np.array([0.45, 0.0, 0.0]))
     sunk, error = {}, {}
     for weight in (HEIGHT_WEIGHT, FILTER_HEIGHT_WEIGHT):
-        moved = place_legs(robot, q, targets, leg_joints(robot), weight)
+        moved = place_legs(robot, q, targets, legs=leg_joints(robot), height_weight=weight)
         sunk[weight] = q[2] - moved[2]
         reached = robot.frame_placement(moved, robot.foot_frames["right"]).translation
         error[weight] = np.linalg.norm(targets["right"].translation - reached)
@@ -65,10 +65,10 @@ def test_a_soft_touchdown_adds_no_torque_spike_to_inverse_dynamics(robot):
     elbow = robot.joint_names.index("arm_right_4_joint")
     q[:, 7 + elbow] += 0.3 * np.sin(2 * np.pi * t)
     contact = np.ones((len(t), 2), dtype=bool)
-    free = inverse_dynamics_with_contacts(robot, t, q, contact, np.array([], dtype=int))[1][:, elbow]
+    free = inverse_dynamics_with_contacts(robot, t, q, contact=contact, impacts=np.array([], dtype=int))[1][:, elbow]
     k = 7  # where the elbow both moves and accelerates
     t2, q2, c2 = np.insert(t, k, t[k]), np.insert(q, k, q[k], axis=0), np.insert(contact, k, contact[k], axis=0)
-    v, tau, _ = inverse_dynamics_with_contacts(robot, t2, q2, c2, np.array([k]))
+    v, tau, _ = inverse_dynamics_with_contacts(robot, t2, q2, contact=c2, impacts=np.array([k]))
     # the post-impact velocity is the central difference of the positions around the touchdown
     np.testing.assert_allclose(v[k + 1, 6 + elbow], (q[k + 1, 7 + elbow] - q[k - 1, 7 + elbow]) / 0.05, atol=1e-9)
     # so its interval keeps a real acceleration: the torque stays nearer the impact-free one
@@ -79,7 +79,7 @@ def test_a_soft_touchdown_adds_no_torque_spike_to_inverse_dynamics(robot):
 
 def test_zmp_error_is_horizontal_and_skips_impact_and_airborne_samples():
     reference = np.zeros((5, 3))
-    zmp = reference + [0.03, 0.04, 0.5]  # the height is not an error
+    zmp = reference + np.array([0.03, 0.04, 0.5])  # the height is not an error
     zmp[2] = [9.0, 9.0, 0.0]  # a pre-impact sample repeats its interval's wrench: not a ZMP sample
     zmp[3] = np.nan  # no contact force: no ZMP
     assert rms_zmp_error(zmp, reference, np.array([2])) == pytest.approx(np.sqrt((0.03**2 + 0.04**2) / 2))

@@ -7,8 +7,8 @@ import pytest
 
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.primitives import em, slot_algebra
-from cocomopl.primitives.bound import _weight_diagonals, free_energy, mp_prior, weight_prior
-from cocomopl.primitives.estimator import _SlotLayout, pca_signal_weights
+from cocomopl.primitives.bound import free_energy, mp_prior, weight_diagonals, weight_prior
+from cocomopl.primitives.estimator import SlotLayout, pca_signal_weights
 from cocomopl.primitives.optimise import LOG_BOUNDS, initial_parameters, maximise_bound
 from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels
 from cocomopl.primitives.training import learned_parts, load_training_steps, phase_templates, resample
@@ -23,17 +23,17 @@ def problem():
     steps = steps.subset(k for k, s in enumerate(steps.specs) if max(s.start_length, s.end_length) <= 0.25)
     parts, types = learned_parts(steps)
     tau = np.linspace(0.0, 1.0, 20)
-    X = resample(parts, phase_templates(parts, types), tau, types)
-    layout = _SlotLayout(parts, types)
+    X = resample(parts, phase_templates(parts, types), tau, types=types)
+    layout = SlotLayout(parts, types)
     return layout.to_slots(X), layout.mask, layout.d2, tau, pca_signal_weights(X, steps.signal_names)
 
 
 def _start(problem):
     X, mask, d2, tau, weights = problem
-    params, data = initial_parameters(X, mask, d2, tau, S, weights)
+    params, data = initial_parameters(X, mask, d2, tau=tau, S=S, signal_weights=weights)
     hyper = {k: np.asarray(params[k], dtype=float) for k in em.HYPERPARAMETERS}
-    A, B = em.priors(hyper, data, KERNEL, ShapeCache(data))
-    q = {**em._posterior_start(params, A, B, data), "chi": params["chi"], "sigma2": np.exp(2 * params["log_sigma"])}
+    A, B = em.priors(hyper, data, KERNEL, cache=ShapeCache(data))
+    q = {**em.posterior_start(params, A, B, data=data), "chi": params["chi"], "sigma2": np.exp(2 * params["log_sigma"])}
     return q, hyper, A, B, data, params
 
 
@@ -43,27 +43,28 @@ def _gradient(params: dict, data) -> dict:
 
 
 def test_the_bound_never_falls_over_the_rounds(problem):
-    result = em.maximise_bound_em(*problem[:4], S, KERNEL, 8, problem[4])
+    X, mask, d2, tau, weights = problem
+    result = em.maximise_bound_em(X, mask, d2, tau=tau, S=S, kernel=KERNEL, max_rounds=8, signal_weights=weights)
     steps = np.diff(result["bounds"])
     assert np.all(steps >= -1e-6 * abs(result["bounds"][-1])), steps
     # and it ends above the joint L-BFGS-B optimiser's, from the same start
-    joint = maximise_bound(*problem[:4], S, KERNEL, 30, problem[4])
+    joint = maximise_bound(X, mask, d2, tau=tau, S=S, kernel=KERNEL, max_iterations=30, signal_weights=weights)
     assert result["bound"] > joint["bound"]
 
 
 def test_each_closed_form_update_is_a_stationary_point(problem):
     q, hyper, A, B, data, start = _start(problem)
     mask = data.mask
-    updated = em.e_step(q, A, B, data)
+    updated = em.e_step(q, A, B, data=data)
     # the last block updated, Q(W_i,S-1) of every signal, is at its optimum given the rest:
     # the bound's gradient along its mean and precision vanishes
-    params = em.as_parameters(updated, hyper, A, B, data)
+    params = em.as_parameters(updated, hyper, A, B=B, data=data)
     at_start, after = _gradient(start, data), _gradient(params, data)
     assert np.abs(after["v"][:, -1] * mask).max() < 1e-6 * np.abs(at_start["v"][:, -1] * mask).max()
     assert np.abs(after["log_c"][:, -1]).max() < 1e-6 * np.abs(at_start["log_c"][:, -1]).max()
     # the noise at its optimum, given the posteriors
     closed = em.means_and_noise(updated, B, data)
-    gradient = _gradient(em.as_parameters(closed, hyper, A, B, data), data)
+    gradient = _gradient(em.as_parameters(closed, hyper, A, B=B, data=data), data)
     assert np.abs(gradient["log_sigma"]).max() < 1e-6 * np.abs(after["log_sigma"]).max()
 
 
@@ -86,8 +87,8 @@ def _held_kl(q: dict, hyper: dict, data) -> float:
 
 def test_the_m_step_cannot_lower_the_bound_and_moves_the_time_kernels(problem):
     q, hyper, A, B, data, _ = _start(problem)
-    q = em.means_and_noise(em.e_step(q, A, B, data), B, data)
-    new = em.m_step(q, hyper, data, KERNEL)
+    q = em.means_and_noise(em.e_step(q, A, B, data=data), B, data)
+    new = em.m_step(q, hyper, data, kernel=KERNEL)
     assert _held_kl(q, new, data) <= _held_kl(q, hyper, data) + 1e-9 * abs(_held_kl(q, hyper, data))
     assert np.abs(new["log_ell_t"] - hyper["log_ell_t"]).max() > 0.1  # the time kernels learn
     assert np.abs(new["log_alpha_t"] - hyper["log_alpha_t"]).max() > 0.1
@@ -113,11 +114,11 @@ def test_slot_algebra_at_each_types_size_equals_the_dense_algebra(xp):
     R = rng.normal(size=(2, len(sizes), N, 3))
     L = slot_algebra.cholesky(xp.asarray(M), groups, xp)
     np.testing.assert_allclose(np.asarray(L), np.linalg.cholesky(M), atol=1e-14)
-    np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(M), xp.asarray(R), groups, xp)),
+    np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(M), xp.asarray(R), groups, xp=xp)),
                                np.linalg.solve(M, R), atol=1e-13)
     # triangular factors, and right-hand sides with more leading axes than the matrices
     R5 = rng.normal(size=(5, 2, len(sizes), N, 2))
-    np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(np.asarray(L)), xp.asarray(R5), groups, xp)),
+    np.testing.assert_allclose(np.asarray(slot_algebra.solve(xp.asarray(np.asarray(L)), xp.asarray(R5), groups, xp=xp)),
                                np.linalg.solve(np.linalg.cholesky(M), R5), atol=1e-13)
 
 
@@ -125,12 +126,12 @@ def test_the_weight_priors_factorised_per_shape_give_the_dense_algebra(problem):
     """EM's weight priors share their factors among the GPs of one kernel shape
     (shared_kernels); every matrix function EM takes of them equals the dense one's."""
     X, mask, d2, tau, weights = problem
-    _, data = initial_parameters(X, mask, d2, tau, S, weights)
+    _, data = initial_parameters(X, mask, d2, tau=tau, S=S, signal_weights=weights)
     rng = np.random.default_rng(0)
     I = X.shape[2]
     pick = rng.random((I, S)) < 0.5  # two shapes, shared by about half of the GPs each
     alpha, gamma, eta = rng.uniform(0.1, 2.0, (I, S)), np.where(pick, 30.0, 300.0), np.where(pick, 1e-3, 1e-1)
-    kernels = WeightKernels(ShapeCache(data), alpha, gamma, eta)
+    kernels = WeightKernels(ShapeCache(data), alpha, gamma, eta=eta)
     assert len(kernels.cache) == 2  # factorised once per shape, not per GP
     B = np.asarray(weight_prior({"log_alpha_w": np.log(alpha), "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)},
                                 data, np))
@@ -158,7 +159,7 @@ def test_the_weight_priors_factorised_per_shape_give_the_dense_algebra(problem):
     ones = dense_solve(B, np.broadcast_to(mask, x.shape))
     np.testing.assert_allclose(kernels.gls_means(x, mask), (ones * x).sum(-1) / (ones * mask).sum(-1), rtol=1e-7)
     # the bound's terms: the same diagonals, and log-determinant terms with the same sum per type
-    mine, theirs = kernels.bound_terms(c, x), _weight_diagonals(B, c, x, data.groups, np)
+    mine, theirs = kernels.bound_terms(c, x), weight_diagonals(B, c, x, groups=data.groups, xp=np)
     for a, b in zip(mine[:3], theirs[:3]):
         np.testing.assert_allclose(a * mask, b * mask, rtol=1e-8, atol=1e-12)
     np.testing.assert_allclose((mine[3] * mask).sum(-1), (theirs[3] * mask).sum(-1), rtol=1e-10)

@@ -3,6 +3,7 @@ robot's MuJoCo model as MJCF."""
 
 import csv
 import dataclasses
+import itertools
 import os
 import subprocess
 import sys
@@ -23,6 +24,7 @@ from cocomopl.export.table import read_csv
 from cocomopl.kinematics import double_support_posture
 from cocomopl.motion_file import temp_name, write_motions
 from cocomopl.pipeline import generate_walk
+from cocomopl.requests import StraightSteps, WalkRequest
 from cocomopl.sim.mujoco_model import build_sim_model
 
 from conftest import assert_one_line_error, run_cli
@@ -31,7 +33,7 @@ from conftest import assert_one_line_error, run_cli
 @pytest.fixture(scope="module")
 def walk():
     """A short generated walk, a start and a stop step from rest to rest, as a robot would play it."""
-    return generate_walk([0.20, 0.20]).motion
+    return generate_walk(WalkRequest(StraightSteps([0.20, 0.20]))).motion
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +52,7 @@ def bumped(motion, joint: int, height: float, t0: float, width: float = 0.4):
 
 
 def test_seqplay_files_round_trip(robot, walk, tmp_path):
-    files, _ = export_motion(robot, walk, "seqplay", tmp_path / "walk")
+    files, _ = export_motion(robot, walk, "seqplay", prefix=tmp_path / "walk")
     assert [f.suffix for f in files] == [".pos", ".zmp", ".hip", ".waist"]
     pos = np.loadtxt(tmp_path / "walk.pos")
     assert pos.shape[1] == 1 + robot.nu
@@ -75,7 +77,7 @@ def read_table(path):
 
 
 def test_csv_names_its_columns_with_units(robot, walk, tmp_path):
-    (path,), _ = export_motion(robot, walk, "csv", tmp_path / "walk")
+    (path,), _ = export_motion(robot, walk, "csv", prefix=tmp_path / "walk")
     header, values = read_table(path)
     assert header[0] == "t_s" and header[1] == f"{robot.joint_names[0]}_rad"
     units = ("_s", "_rad", "_m", "_rad_s", "_Nm", "_N", "_contact")  # a contact flag is 0 or 1
@@ -83,11 +85,11 @@ def test_csv_names_its_columns_with_units(robot, walk, tmp_path):
     for suffix in ("_rad", "_rad_s", "_Nm"):  # angles, velocities, torques of every joint
         assert all(f"{joint}{suffix}" in header for joint in robot.joint_names)
     assert [n for n in header if n.endswith("_N")] == [f"{s}_f{a}_N" for s in ("left", "right") for a in "xyz"]
-    assert len(header) == 1 + 3 * robot.nu + 9 + 6 + 6 + 2 and values.shape[1] == len(header)
+    assert len(header) == 1 + 3 * robot.nu + 9 + 6 + 6 + 2 + 3 + 12 and values.shape[1] == len(header)
 
 
 def test_csv_velocities_and_torques_are_those_of_the_written_angles(robot, walk, tmp_path):
-    (path,), report = export_motion(robot, walk, "csv", tmp_path / "walk")
+    (path,), report = export_motion(robot, walk, "csv", prefix=tmp_path / "walk")
     header, values = read_table(path)
 
     def block(suffix):
@@ -102,7 +104,7 @@ def test_csv_velocities_and_torques_are_those_of_the_written_angles(robot, walk,
     forces = values[:, [header.index(f"{s}_f{a}_N") for s in ("left", "right") for a in "xyz"]].reshape(-1, 2, 3)
     keep = walk.kept_samples()
     knots = walk.t[keep] - walk.t[0]
-    for k, (start, end) in enumerate(zip(knots[:-1], knots[1:])):
+    for k, (start, end) in enumerate(itertools.pairwise(knots)):
         rows = (t >= start - 1e-9) & (t < end - 1e-9)
         assert rows.any() and np.abs(forces[rows] - walk.wrenches[keep[k], :, :3]).max() < 1e-5
 
@@ -111,7 +113,7 @@ def test_export_into_an_unwritable_folder_raises_and_writes_nothing(robot, walk,
     blocker = tmp_path / "a-file"
     blocker.write_text("")
     with pytest.raises(Error, match="cannot"):
-        export_motion(robot, walk, "seqplay", blocker / "walk")
+        export_motion(robot, walk, "seqplay", prefix=blocker / "walk")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]
 
 
@@ -163,7 +165,7 @@ def test_nan_is_never_exported_even_when_forced(robot, walk, tmp_path):
     q = walk.q.copy()
     q[40, 7 + 3] = np.nan
     with pytest.raises(Error, match="NaN"):
-        export_motion(robot, dataclasses.replace(walk, q=q), "csv", tmp_path / "walk", force=True)
+        export_motion(robot, dataclasses.replace(walk, q=q), "csv", prefix=tmp_path / "walk", force=True)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -176,7 +178,7 @@ def test_what_is_exported_passes_the_gate_read_back(robot, walk, tmp_path, seed)
     edited = bumped(walk, joint, float(rng.normal(0.0, 0.6)), t0=float(rng.uniform(0.5, walk.t[-1] - 0.5)),
                     width=float(rng.uniform(0.05, 0.6)))
     try:
-        (path,), _ = export_motion(robot, edited, "csv", tmp_path / "walk")
+        (path,), _ = export_motion(robot, edited, "csv", prefix=tmp_path / "walk")
     except Error as exc:
         assert "refused" in str(exc) and not tmp_path.joinpath("walk.csv").exists()
         return
@@ -255,6 +257,37 @@ def test_mjcf_loads_anywhere_as_the_simulated_model(robot, talos_mjcf, tmp_path,
         assert np.allclose(data.site(f"{side}_sole").xpos, sole, atol=1e-6)
 
 
+def _stands(model, data) -> tuple[float, float, float]:
+    """Step ``data`` 0.5 s with its servo commands as they are: how far the base height strays
+    (m), how high the soles end (m), and the floor's normal force over the robot's weight."""
+    height, strayed = data.qpos[2], 0.0
+    for _ in range(round(0.5 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+        strayed = max(strayed, abs(data.qpos[2] - height))
+    force, normal = np.zeros(6), 0.0
+    for i in range(data.ncon):
+        assert {model.geom(data.contact[i].geom1).name, model.geom(data.contact[i].geom2).name} in (
+            {"floor", "left_sole"}, {"floor", "right_sole"})
+        mujoco.mj_contactForce(model, data, i, force)
+        normal += force[0]
+    soles = max(abs(data.site(f"{side}_sole").xpos[2]) for side in ("left", "right"))
+    return strayed, soles, normal / (model.body_mass.sum() * -model.opt.gravity[2])
+
+
+def test_mjcf_stands_as_loaded_and_at_its_home_keyframe(robot, talos_mjcf):
+    """As MuJoCo users load a model: as it is (every joint and servo command at zero) or reset
+    to the keyframe ``home`` (the reference posture, with the servo commands that hold it),
+    stepped, it stands on its soles and the floor carries its weight."""
+    model = mujoco.MjModel.from_xml_path(talos_mjcf["output"])
+    home = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, home, model.key("home").id)
+    np.testing.assert_allclose(home.qpos, build_sim_model(robot, visuals=False).qpos(robot.q_ref), atol=1e-8)
+    np.testing.assert_allclose(home.ctrl, robot.q_ref[7:], atol=1e-8)
+    for data in (mujoco.MjData(model), home):
+        strayed, soles, load = _stands(model, data)
+        assert strayed < 0.002 and soles < 0.002 and abs(load - 1) < 0.01, (strayed, soles, load)
+
+
 def test_mjcf_into_an_unwritable_folder_raises_and_writes_nothing(robot, tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("")
@@ -299,7 +332,7 @@ def test_a_killed_mjcf_exports_leftover_is_removed_by_the_next(robot, tmp_path, 
 
 
 def test_export_model_refuses_an_unknown_format_and_a_folder(tmp_path):
-    with pytest.raises(Error, match="urdf.*mjcf"):
+    with pytest.raises(Error, match=r"urdf.*mjcf"):
         export_model("talos", "urdf", tmp_path / "talos.urdf")
     with pytest.raises(Error, match="directory"):
         export_model("talos", "mjcf", tmp_path)

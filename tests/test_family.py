@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
-from cocomopl.primitives.family import GROUPS, _bracket, family_errors, probe_lengths, signal_group_indices
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
+from cocomopl.primitives.family import GROUPS, bracket, family_errors, probe_lengths, signal_group_indices
 from cocomopl.primitives.model_file import load_model
 from cocomopl.primitives.training import load_training_steps
 
@@ -39,7 +39,7 @@ def test_probe_lengths_are_the_midpoints():
 ])
 def test_a_probe_is_bracketed_by_its_kind_and_side_at_the_nearest_lengths(split, spec, below, above):
     _, _, trained = split
-    lower, upper, weight = _bracket(spec, trained)
+    lower, upper, weight = bracket(spec, trained)
     assert (trained.specs[lower], trained.specs[upper]) == (below, above)
     assert weight == pytest.approx(0.5)
 
@@ -47,13 +47,13 @@ def test_a_probe_is_bracketed_by_its_kind_and_side_at_the_nearest_lengths(split,
 def test_a_probe_outside_the_trained_lengths_is_refused(split):
     _, _, trained = split
     with pytest.raises(Error, match="not between two trained steps"):
-        _bracket(StepSpec("cyclic", 0.45, 0.45), trained)
+        bracket(StepSpec("cyclic", 0.45, 0.45), trained)
 
 
 def test_the_bundled_model_reproduces_steps_it_was_trained_on_within_its_fit(robot, split):
     steps, probes, trained = split
     model = load_model(BUNDLED_MODEL).prepare()  # trained on every step, the probes too
-    errors = family_errors(model, probes, trained, signal_group_indices(robot, steps.signal_names))
+    errors = family_errors(model, probes, trained, groups=signal_group_indices(robot, steps.signal_names))
     assert set(errors["all"]["model"]) == set(GROUPS)
     assert len(errors["steps"]) == len(probes)
     for group in GROUPS:

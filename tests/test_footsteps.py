@@ -78,8 +78,8 @@ def test_a_mirrored_step_keeps_its_footsteps_and_lands_as_the_mirror_image(robot
     separation = foot_separation(robot)
     mirrored = TURNING.mirrored()
     assert mirrored.omni_parameters() == TURNING.omni_parameters() and mirrored.mirrored() == TURNING
-    left = footstep_pose(np.zeros(3), "left", 0.25, 0.1, math.radians(20), separation)
-    right = footstep_pose(np.zeros(3), "right", 0.25, 0.1, math.radians(20), separation)
+    left = footstep_pose(np.zeros(3), "left", (0.25, 0.1, math.radians(20)), separation=separation)
+    right = footstep_pose(np.zeros(3), "right", (0.25, 0.1, math.radians(20)), separation=separation)
     np.testing.assert_allclose(right, left * [1, -1, -1])  # reflected in the sagittal plane
     assert left[1] > separation and left[2] > 0  # outward and toes out, to the left
 
@@ -90,24 +90,25 @@ def test_footstep_origin_inverts_footstep_pose():
         for _ in range(20):
             other = rng.uniform([-1, -1, -np.pi], [1, 1, np.pi])
             step = rng.uniform([-0.15, -0.02, -0.4], [0.4, 0.15, 0.4])
-            landed = footstep_pose(other, side, *step, 0.17)
-            np.testing.assert_allclose(footstep_origin(landed, side, *step, 0.17), other, atol=1e-12)
+            landed = footstep_pose(other, side, step, separation=0.17)
+            np.testing.assert_allclose(footstep_origin(landed, side, step, separation=0.17), other, atol=1e-12)
 
 
 def test_a_straight_footstep_is_exactly_the_old_arithmetic():
-    assert footstep_pose(np.array([0.3, -0.085, 0.0]), "left", 0.25, 0.0, 0.0, 0.17).tolist() == [0.3 + 0.25, -0.085 + 0.17, 0.0]
+    assert footstep_pose(np.array([0.3, -0.085, 0.0]), "left", (0.25, 0.0, 0.0),
+                         separation=0.17).tolist() == [0.3 + 0.25, -0.085 + 0.17, 0.0]
 
 
 def test_footsteps_out_of_range_or_colliding_are_refused_in_one_line(robot):
-    check_footstep(robot, "left", 0.2, 0.0, math.radians(25))  # a forward step leaves the heels room to turn
-    check_footstep(robot, "right", -0.15, 0.15, math.radians(-25))
+    check_footstep(robot, "left", (0.2, 0.0, math.radians(25)))  # a forward step leaves the heels room to turn
+    check_footstep(robot, "right", (-0.15, 0.15, math.radians(-25)))
     for args, message in [((0.5, 0.0, 0.0), "length 500 mm is outside -150..400 mm"),
                           ((0.2, 0.2, 0.0), "width 200 mm is outside"),
                           ((0.2, 0.0, math.radians(30)), "turn 30 deg is outside -25..25 deg"),
                           ((0.0, -0.03, 0.0), "puts the left foot"),
                           ((0.0, 0.0, math.radians(25)), "puts the left foot")]:
         with pytest.raises(Error, match=message) as info:
-            check_footstep(robot, "left", *args)
+            check_footstep(robot, "left", args)
         assert "\n" not in str(info.value)
 
 
@@ -124,13 +125,14 @@ def test_the_phases_of_a_turning_stop_close_the_feet_up_parallel(robot):
     phases = walk_phases([stop], separation, SMALL)
     first, second = [p for p in phases if p.kind == "ss"]
     # the left sole starts where the right one's footstep (the stop's start footstep) came from
-    np.testing.assert_allclose(footstep_pose(np.array([*first.swing_from, first.yaw_from]), "right", 0.2, 0.05,
-                                             math.radians(15), separation), [0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(footstep_pose(np.array([*first.swing_from, first.yaw_from]), "right",
+                                             (0.2, 0.05, math.radians(15)), separation=separation), [0, 0, 0],
+                                             atol=1e-12)
     # then lands the same footstep again and the right sole closes up beside it, parallel
-    landed = footstep_pose(np.zeros(3), "left", 0.2, 0.05, math.radians(15), separation)
+    landed = footstep_pose(np.zeros(3), "left", (0.2, 0.05, math.radians(15)), separation=separation)
     np.testing.assert_allclose([*first.swing_to, first.yaw_to], landed)
     np.testing.assert_allclose([*landing_point(phases), landing_yaw(phases)],
-                               footstep_pose(landed, "right", 0.0, 0.0, 0.0, separation))
+                               footstep_pose(landed, "right", (0.0, 0.0, 0.0), separation=separation))
     assert second.yaw_to == pytest.approx(landed[2])
 
 
@@ -145,7 +147,7 @@ def test_a_start_step_turns_side_steps_or_steps_back_and_its_mirror_image_the_ot
     assert solution.stats["converged"]
     assert failed_checks(robot, solution, SMALL)[0] == []  # dynamics, friction, ZMP in the (turned) soles
     motion = to_motion(robot, solution, SMALL)
-    landed = footstep_pose(np.zeros(3), "left", length, width, turn, separation)
+    landed = footstep_pose(np.zeros(3), "left", (length, width, turn), separation=separation)
     np.testing.assert_allclose(sole_pose(robot, motion.q[-1], "left"), landed, atol=2e-3)
     np.testing.assert_allclose(sole_pose(robot, motion.q[-1], "right"), [0, 0, 0], atol=2e-3)
     mirrored = mirror_motion(robot, motion)
@@ -159,17 +161,18 @@ def test_a_start_step_turns_side_steps_or_steps_back_and_its_mirror_image_the_ot
 def gait_state_geometry(robot, footstep: Footstep) -> np.ndarray:
     """A standing state with the soles as a gait state ``S`` of ``footstep`` has them: the
     right sole at the origin, the left one where the right one's footstep came from."""
-    left = footstep_origin(np.zeros(3), "right", *footstep, foot_separation(robot))
+    left = footstep_origin(np.zeros(3), "right", footstep, separation=foot_separation(robot))
     return robot.state_from_posture(double_support_posture(robot, left[:2], (0.0, 0.0), yaws=(left[2], 0.0)))
 
 
 def test_a_transition_between_footsteps_is_held_to_the_next_gait_state_where_the_sole_landed(robot):
     a, b = Footstep(0.2, 0.0, math.radians(15)), Footstep(0.15, 0.05, math.radians(-10))
     states = {f.gait_key: gait_state_geometry(robot, f) for f in (a, b)}
-    plan = step_plan(robot, StepSpec.between("transition", a, b), states, SMALL)
+    plan = step_plan(robot, StepSpec.between("transition", a, b), states, settings=SMALL)
     nq = robot.model.nq
-    np.testing.assert_allclose(sole_pose(robot, plan.x0[:nq], "left"), footstep_origin(np.zeros(3), "right", *a, foot_separation(robot)), atol=1e-4)
-    landed = footstep_pose(np.zeros(3), "left", *b, foot_separation(robot))
+    np.testing.assert_allclose(sole_pose(robot, plan.x0[:nq], "left"),
+                               footstep_origin(np.zeros(3), "right", a, separation=foot_separation(robot)), atol=1e-4)
+    landed = footstep_pose(np.zeros(3), "left", b, separation=foot_separation(robot))
     # the next step stands on the left sole that landed, and its swing sole is the right one
     np.testing.assert_allclose(sole_pose(robot, plan.x_target[:nq], "left"), landed, atol=1e-4)
     np.testing.assert_allclose(sole_pose(robot, plan.x_target[:nq], "right"), [0, 0, 0], atol=1e-4)
@@ -185,15 +188,17 @@ def test_a_turning_warm_up_walk_ends_at_rest_and_its_segments_are_in_their_step_
         last = next(p for p in reversed(impacts) if p.swing == side)
         np.testing.assert_allclose(sole_pose(robot, plan.x_target[:nq], side), [*last.swing_to, last.yaw_to], atol=1e-4)
     assert np.all(plan.x_target[nq:] == 0)
-    walk = SimpleNamespace(plan=plan, xs=initial_guess(robot, plan.phases, plan.x0, SMALL))
+    walk = SimpleNamespace(plan=plan, xs=initial_guess(robot, plan.phases, plan.x0, settings=SMALL))
     # the second cyclic step stands on the right sole, the stop's first step on the left one (mirrored)
     for kind in ("cyclic", "stop"):
         first = walk_segment(robot, walk, kind)[0][:nq]
         np.testing.assert_allclose(sole_pose(robot, first, "right"), [0, 0, 0], atol=2e-3)
-        np.testing.assert_allclose(sole_pose(robot, first, "left"), footstep_origin(np.zeros(3), "right", *footstep, separation),
+        np.testing.assert_allclose(sole_pose(robot, first, "left"),
+                                   footstep_origin(np.zeros(3), "right", footstep, separation=separation),
                                    atol=2e-3)
 
 
+@pytest.mark.slow  # solves the turning dataset (about 2 minutes on 2 cores)
 def test_a_turning_footstep_is_solved_mirrored_and_passes_every_check_of_the_dataset(robot, turning_dataset):
     motions, attrs = read_motions(turning_dataset, dataset=True)
     rest = Footstep(0.0)
@@ -201,18 +206,20 @@ def test_a_turning_footstep_is_solved_mirrored_and_passes_every_check_of_the_dat
              StepSpec.between("stop", TURNED, rest)]
     assert sorted(motions) == sorted(n for s in specs for n in (s.name, s.mirrored().name))
     assert attrs["footsteps_m_rad"] == [list(TURNED)] and attrs["all_converged"]
-    report = check_dataset(robot, motions, SMALL.friction, SMALL.dt)
+    report = check_dataset(robot, motions, SMALL.friction, dt=SMALL.dt)
     assert report["ok"] and report["junctions"] == 8, report["worst"]  # continuity at every junction included
     separation = foot_separation(robot)
     # the left sole toes out 15 degrees; the right one, mirrored, lands turned the other way
     step = motions[StepSpec.between("cyclic", TURNED, TURNED).name]
-    np.testing.assert_allclose(sole_pose(robot, step.q[-1], "left"), footstep_pose(np.zeros(3), "left", *TURNED, separation),
+    np.testing.assert_allclose(sole_pose(robot, step.q[-1], "left"),
+                               footstep_pose(np.zeros(3), "left", TURNED, separation=separation),
                                atol=2e-3)
-    mirrored = motions[StepSpec.between("cyclic", TURNED, TURNED, "right").name]
+    mirrored = motions[StepSpec.between("cyclic", TURNED, TURNED, swing_side="right").name]
     np.testing.assert_allclose(sole_pose(robot, mirrored.q[-1], "right"),
-                               footstep_pose(np.zeros(3), "right", *TURNED, separation), atol=2e-3)
+                               footstep_pose(np.zeros(3), "right", TURNED, separation=separation), atol=2e-3)
 
 
+@pytest.mark.slow  # solves the turning dataset (about 2 minutes on 2 cores)
 def test_turning_feet_swing_clear_of_each_other(robot, turning_dataset):
     """The feet's meshes keep the gap a landing needs (FEET_GAP) all through every turning
     step, swings included: the stop's closing foot turns past the other, whose heel points
@@ -241,9 +248,10 @@ def turning_model(turning_dataset):
     return steps, MovementPrimitives(n_primitives=3, kernel="matern52", n_grid=30, max_iterations=20).fit(steps)
 
 
+@pytest.mark.slow  # solves the turning dataset (about 2 minutes on 2 cores)
 def test_a_model_of_footsteps_predicts_its_training_turns_and_round_trips_through_its_file(tmp_path, turning_model):
     steps, model = turning_model
-    assert model.state_["lengths"].shape[-1] == FOOTSTEP_PARAMETERS
+    assert model.lengths_.shape[-1] == FOOTSTEP_PARAMETERS
     turn = StepSpec.between("cyclic", TURNED, TURNED)
     step = model.predict(turn)
     assert step.distance == 0.0 and step.in_support
@@ -258,13 +266,15 @@ def test_a_model_of_footsteps_predicts_its_training_turns_and_round_trips_throug
 def test_the_footsteps_of_a_turning_walk_chain_and_a_straight_walk_keeps_its_old_arithmetic(robot):
     separation = foot_separation(robot)
     left, right = TURN
-    specs = [StepSpec.between("start", Footstep(0.0), left), StepSpec.between("transition", left, right, "right"),
+    specs = [StepSpec.between("start", Footstep(0.0), left),
+             StepSpec.between("transition", left, right, swing_side="right"),
              StepSpec.between("stop", right, Footstep(0.0))]
     feet = footsteps(robot, specs)
     # the right sole lands the right footstep from where the left one landed, and so on
     pose = {side: np.array([*feet[0]["end"][side][:2], feet[0]["yaw"]["end"][side]]) for side in ("left", "right")}
-    np.testing.assert_allclose(pose["left"], footstep_pose(np.array([0, -separation / 2, 0]), "left", *left, separation))
-    landed = footstep_pose(pose["left"], "right", *right, separation)
+    np.testing.assert_allclose(pose["left"],
+                               footstep_pose(np.array([0, -separation / 2, 0]), "left", left, separation=separation))
+    landed = footstep_pose(pose["left"], "right", right, separation=separation)
     np.testing.assert_allclose([*feet[1]["end"]["right"][:2], feet[1]["yaw"]["end"]["right"]], landed)
     assert feet[1]["yaw"]["end"]["right"] == pytest.approx(math.radians(30))  # a steady turn: 15 degrees a step
     # the stop lands its footstep again and closes the other sole up beside it, parallel
@@ -275,14 +285,15 @@ def test_the_footsteps_of_a_turning_walk_chain_and_a_straight_walk_keeps_its_old
     assert all(yaw == 0.0 for f in straight for when in ("start", "end") for yaw in f["yaw"][when].values())
 
 
+@pytest.mark.slow  # solves the turning dataset (about 2 minutes on 2 cores)
 def test_a_step_is_conditioned_on_the_end_of_the_last_in_its_own_turned_frame(turning_model):
     _, model = turning_model
     end = np.arange(len(model.signal_names), dtype=float)
     yaw = model.signal_names.index("pelvis_yaw")
     left, right = TURN
     after_left = in_next_step_frame(model, StepSpec.between("start", Footstep(0.0), left), end)
-    after_right = in_next_step_frame(model, StepSpec.between("transition", left, right, "right"), end)
-    after_splay = in_next_step_frame(model, StepSpec.between("cyclic", left, left, "right"), end)
+    after_right = in_next_step_frame(model, StepSpec.between("transition", left, right, swing_side="right"), end)
+    after_splay = in_next_step_frame(model, StepSpec.between("cyclic", left, left, swing_side="right"), end)
     assert after_left[yaw] == pytest.approx(end[yaw] - math.radians(15))  # the left sole toed out: turned left
     assert after_right[yaw] == pytest.approx(end[yaw] - math.radians(15))  # the right one toed in: turned left too
     assert after_splay[yaw] == pytest.approx(end[yaw] + math.radians(15))  # the right one toed out: turned right
@@ -290,9 +301,11 @@ def test_a_step_is_conditioned_on_the_end_of_the_last_in_its_own_turned_frame(tu
     assert in_next_step_frame(model, StepSpec("cyclic", 0.2, 0.2), end) is end
 
 
+@pytest.mark.slow  # solves the turning dataset (about 2 minutes on 2 cores)
 def test_a_turning_walk_is_placed_on_its_turned_footsteps(robot, turning_model):
     _, model = turning_model
-    specs = [StepSpec.between("start", Footstep(0.0), TURNED), StepSpec.between("cyclic", TURNED, TURNED, "right"),
+    specs = [StepSpec.between("start", Footstep(0.0), TURNED),
+             StepSpec.between("cyclic", TURNED, TURNED, swing_side="right"),
              StepSpec.between("stop", TURNED, Footstep(0.0))]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutOfSupportWarning)

@@ -7,7 +7,7 @@ import pytest
 from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
-from cocomopl.primitives.estimator import SAME_LENGTHS_M2, _weight_posterior
+from cocomopl.primitives.estimator import SAME_LENGTHS_M2, weight_posterior
 from cocomopl.primitives.growth import (
     candidate_lengths,
     check_budget,
@@ -32,15 +32,15 @@ def model():
 def direct_weight_variance(model, type_, z):
     """The weight GPs' posterior variance (before the floor), by dense solves of the model's
     weight kernels: ``alpha - b^T C b`` with ``C = (alpha (E + eta I) + I / c)^-1``."""
-    c = model._type_arrays(type_)
-    n = len(c["lengths"])
-    D = ((c["lengths"][:, None] - c["lengths"][None]) ** 2).sum(axis=-1)
-    eta, precision = model.state_["eta_w"].ravel(), model.state_["c_w"].ravel()
-    B = c["alpha_w"][:, None, None] * (np.exp(-np.multiply.outer(c["gamma_w"], D)) + eta[:, None, None] * np.eye(n))
+    c = model.type_arrays(type_)
+    n = len(c.lengths)
+    D = ((c.lengths[:, None] - c.lengths[None]) ** 2).sum(axis=-1)
+    eta, precision = model.eta_w_.ravel(), model.c_w_.ravel()
+    B = c.alpha_w[:, None, None] * (np.exp(-np.multiply.outer(c.gamma_w, D)) + eta[:, None, None] * np.eye(n))
     C = np.linalg.inv(B + np.eye(n) / precision[:, None, None])
-    d2 = ((c["lengths"] - z) ** 2).sum(axis=1)
-    b = c["alpha_w"][:, None] * np.exp(-np.multiply.outer(c["gamma_w"], d2)) + np.multiply.outer(c["nugget"], d2 < SAME_LENGTHS_M2)
-    return np.maximum(c["alpha_w"] - np.einsum("kn,knm,km->k", b, C, b), 0.0)
+    d2 = ((c.lengths - z) ** 2).sum(axis=1)
+    b = c.alpha_w[:, None] * np.exp(-np.multiply.outer(c.gamma_w, d2)) + np.multiply.outer(c.nugget, d2 < SAME_LENGTHS_M2)
+    return np.maximum(c.alpha_w - np.einsum("kn,knm,km->k", b, C, b), 0.0)
 
 
 @pytest.mark.parametrize("spec", [StepSpec("cyclic", 0.175, 0.175), StepSpec("start", 0.0, 0.33),
@@ -48,8 +48,8 @@ def direct_weight_variance(model, type_, z):
 def test_with_nothing_added_the_variance_is_the_models_own(model, spec):
     type_ = f"{spec.kind}_left"
     z = step_lengths(spec)
-    prior = model._type_arrays(type_)["alpha_w"]
-    ours = weight_variance(model, type_, np.zeros((0, 2)), z).ravel()
+    prior = model.type_arrays(type_).alpha_w
+    ours = weight_variance(model, type_, np.zeros((0, 2)), z=z).ravel()
     # as fractions of the prior: the variance left is a difference of nearly equal numbers
     np.testing.assert_allclose(ours / prior, direct_weight_variance(model, type_, z) / prior, atol=1e-6)
 
@@ -59,11 +59,11 @@ def test_with_nothing_added_the_variance_is_the_models_own(model, spec):
 def test_the_predictions_eigenbasis_variance_is_the_direct_solves(model, spec):
     """Prediction takes ``b^T C b`` in an eigenbasis (``estimator._weight_solves``), at a new
     step and at a trained one, where the nugget counts."""
-    type_ = model._trajectory_types(f"{spec.kind}_left")[0]
-    c = model._type_arrays(type_)
-    z = step_lengths(spec, c["lengths"].shape[1])
-    _, (variance,) = _weight_posterior(c, ((c["lengths"] - z) ** 2).sum(axis=1)[None])
-    prior = c["alpha_w"]
+    type_ = model.trajectory_types(f"{spec.kind}_left")[0]
+    c = model.type_arrays(type_)
+    z = step_lengths(spec, c.lengths.shape[1])
+    _, (variance,) = weight_posterior(c, ((c.lengths - z) ** 2).sum(axis=1)[None])
+    prior = c.alpha_w
     np.testing.assert_allclose(np.maximum(variance, 0.0) / prior, direct_weight_variance(model, type_, z) / prior, atol=1e-8)
 
 
@@ -91,7 +91,7 @@ def test_the_first_pick_is_where_the_model_is_least_certain(model):
     assert first == grid[int(np.argmax(scores))] and score == pytest.approx(max(scores))
     # and the second is where the most is left once the first is known
     (_, _), (second, _) = pick_uncertain(model, TRAINED, 2)
-    left = {L: variance_left(model, L, [first]) for L in grid if L != first}
+    left = {L: variance_left(model, L, [first]) for L in grid if first != L}
     assert second == max(left, key=left.get)
 
 
@@ -125,10 +125,12 @@ def test_the_models_walk_lies_on_the_warm_up_walks_knots_from_rest_to_its_footst
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.ocp.solve import warm_up_plan
     from cocomopl.pipeline import generate_walk
+    from cocomopl.requests import StraightSteps, WalkRequest
 
     settings, length = OCPSettings(), 0.23
     plan = warm_up_plan(robot, length, settings)
-    xs, us = warm_start(robot, walk_guess(robot, generate_walk([length] * 4).motion), plan.phases, plan.x0, settings.dt)
+    xs, us = warm_start(robot, walk_guess(robot, generate_walk(WalkRequest(StraightSteps([length] * 4))).motion), plan.phases, x0=plan.x0,
+                        dt=settings.dt)
     assert len(xs) == state_count(plan.phases) and len(us) == len(xs) - 1
     np.testing.assert_array_equal(xs[0], plan.x0)
     data = robot.model.createData()
@@ -192,13 +194,13 @@ def test_the_neighbours_oc_walk_lies_on_the_warm_up_walks_knots(robot, small_dat
     chained, mapped onto the knots of the warm-up walk of a new length."""
     import pinocchio as pin
 
-    from cocomopl.jobs import _neighbour_walk
+    from cocomopl.jobs import neighbour_walk
     from cocomopl.motion_file import read_motions
     from cocomopl.ocp.problems import landing_point, state_count
     from cocomopl.ocp.solve import warm_up_plan
 
     motions, attrs = read_motions(small_dataset, dataset=True)
-    xs, us = _neighbour_walk(robot, motions, attrs["settings"], SMALL_LENGTH, SMALL_LENGTH, SMALL)
+    xs, us = neighbour_walk(robot, motions, attrs["settings"], neighbour=SMALL_LENGTH, length=SMALL_LENGTH, settings=SMALL)
     plan = warm_up_plan(robot, SMALL_LENGTH, SMALL)
     assert len(xs) == state_count(plan.phases) and len(us) == len(xs) - 1
     np.testing.assert_array_equal(xs[0], plan.x0)

@@ -83,7 +83,7 @@ def test_zmp_tracks_a_step_after_the_preview(controller):
 def test_swing_position_is_smooth_and_clears_the_ground():
     start, end = np.array([0.0, 0.1, 0.0]), np.array([0.3, 0.1, 0.0])
     s = np.linspace(0.0, 1.0, 201)
-    path = np.array([swing_position(start, end, x, 0.05) for x in s])
+    path = np.array([swing_position(start, end, x, height=0.05) for x in s])
     assert np.allclose(path[0], start) and np.allclose(path[-1], end)
     assert np.isclose(path[:, 2].max(), 0.05) and path[:, 2].min() >= 0.0
     velocity = np.gradient(path, s, axis=0)
@@ -107,7 +107,7 @@ def test_zmp_reference_is_on_the_stance_sole_in_single_support(robot):
 
 def test_durations_must_match_the_phases(robot):
     with pytest.raises(Error, match="phase durations"):
-        kajita_walk(robot, SPECS, [np.array([0.4, 0.8]), np.array([0.15, 0.8])])
+        kajita_walk(robot, SPECS, durations=[np.array([0.4, 0.8]), np.array([0.15, 0.8])])
 
 
 def test_unreachable_footsteps_are_refused(robot):
@@ -230,8 +230,9 @@ def test_a_turning_side_stepping_walk_puts_its_soles_and_zmp_on_the_turned_foots
     from cocomopl.motion import Footstep
 
     lead, trail = Footstep(0.15, 0.05, math.radians(12)), Footstep(0.15, 0.0, math.radians(-12))
-    specs = [StepSpec.between("start", Footstep(0.0), lead, "left"), StepSpec.between("transition", lead, trail, "right"),
-             StepSpec.between("stop", trail, Footstep(0.0), "left")]
+    specs = [StepSpec.between("start", Footstep(0.0), lead, swing_side="left"),
+             StepSpec.between("transition", lead, trail, swing_side="right"),
+             StepSpec.between("stop", trail, Footstep(0.0), swing_side="left")]
     walk = kajita_walk(robot, specs, dt=0.02)
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, walk.q[-1])

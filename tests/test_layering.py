@@ -1,4 +1,4 @@
-"""The package's layering rule (README, "Layout"), read from the import statements.
+"""The package's layering rule (docs/architecture.md, "Layering"), read from the import statements.
 
 The core (the Motion type, files, robot, walking vocabulary and footstep plans,
 kinematics, dynamics, analysis, bundled data) is used by every stage and imports none.  The stages come in
@@ -17,8 +17,8 @@ PACKAGE = Path(cocomopl.__file__).parent
 ROOT = PACKAGE.parent
 CORE = {"cocomopl", "errors", "motion", "motion_file", "validation", "provenance", "robot", "gait", "kinematics", "dynamics",
         "analysis", "data", "planning"}
-STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "pipeline", "jobs", "cli",
-          "__main__"]
+STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "requests", "results", "pipeline",
+          "jobs", "options", "cli", "__main__"]
 
 
 def layer(path: Path) -> str:

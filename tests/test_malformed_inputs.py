@@ -152,7 +152,7 @@ def test_empty_text_and_truncated_files_are_refused(content, tmp_path, monkeypat
     for argv in (["dataset", "info", str(bad)], ["dataset", "check", str(bad)], ["plot", str(bad)],
                  ["export", str(bad), "--format", "csv", "--out", "w"], ["reproduce", "--data", str(bad)],
                  ["train", str(bad), "--out", "m.npz"]):
-        code, out, err = run(argv, capsys)
+        code, _out, err = run(argv, capsys)
         assert_refused(code, err, "bad.h5")
     assert [p.name for p in tmp_path.iterdir()] == ["bad.h5"]
 
@@ -201,7 +201,7 @@ def test_a_dataset_whose_motion_is_fine_but_fails_the_check_is_refused_by_reprod
 def test_a_motion_file_is_not_a_dataset(good_motion, tmp_path, capsys):
     for argv in (["reproduce", "--data", str(good_motion), "--out", str(tmp_path / "r")],
                  ["dataset", "info", str(good_motion)], ["train", str(good_motion), "--out", str(tmp_path / "m.npz")]):
-        code, out, err = run(argv, capsys)
+        code, _out, err = run(argv, capsys)
         assert_refused(code, err, "motion.h5", "not an OC dataset")
     assert list(tmp_path.iterdir()) == []
 
@@ -236,3 +236,14 @@ def test_options_out_of_range_are_refused_before_any_work(argv, words, tmp_path,
         code = exc.code
     assert_refused(code, capsys.readouterr().err, *words)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("setting", ["friction", "dt"])
+def test_a_null_setting_is_refused_by_dataset_check_in_one_line(setting, dataset_copy, tmp_path, capsys):
+    bad = tmp_path / "bad.h5"
+    shutil.copy(dataset_copy, bad)
+    with h5py.File(bad, "r+") as f:
+        settings = json.loads(f.attrs["settings"])
+        f.attrs["settings"] = json.dumps(settings | {setting: None})
+    code, _, err = run(["dataset", "check", str(bad)], capsys)
+    assert_refused(code, err, "bad.h5", f"setting '{setting}'", "None", "not a number")

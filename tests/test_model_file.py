@@ -7,7 +7,6 @@ content refuse them.
 
 import copy
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from cocomopl.primitives.model_file import (
     REQUIRED,
     checksum,
     load_model,
+    model_arrays,
     model_metadata,
     save_model,
 )
@@ -81,19 +81,19 @@ def edited(bundled, out: Path, change, fix_checksum: bool = True) -> Path:
     return write(out, arrays, json.dumps(meta))
 
 
-def test_required_matches_fitted_state(model):
-    assert set(REQUIRED) == set(model.state_)
+def test_the_file_holds_every_fitted_array(model):
+    fitted = {name[:-1] for name, value in vars(model).items() if name.endswith("_") and isinstance(value, np.ndarray)}
+    assert set(REQUIRED) == fitted
     assert len(REQUIRED) == len(set(REQUIRED))
 
 
 def test_round_trip(model, saved):
     loaded = load_model(saved)
-    assert set(loaded.state_) == set(model.state_)
-    for name, value in model.state_.items():
-        assert isinstance(loaded.state_[name], np.ndarray), name
-        assert loaded.state_[name].dtype == np.asarray(value).dtype, name
-        np.testing.assert_array_equal(loaded.state_[name], value, err_msg=name)
-    assert loaded.state_["signal_names"].dtype.kind == "U"
+    for name, value in model_arrays(model).items():
+        assert isinstance(getattr(loaded, f"{name}_"), np.ndarray), name
+        assert getattr(loaded, f"{name}_").dtype == value.dtype, name
+        np.testing.assert_array_equal(getattr(loaded, f"{name}_"), value, err_msg=name)
+    assert loaded.signal_names_.dtype.kind == "U"
     for attr in ("n_primitives", "kernel", "n_grid", "max_iterations", "bound_", "n_iter_", "fit_time_s_",
                  "explained_variance_"):
         assert getattr(loaded, attr) == getattr(model, attr), attr
@@ -108,7 +108,7 @@ def test_round_trip(model, saved):
 def test_metadata(model, saved):
     meta = model_metadata(saved)
     assert meta["format"] == "cocomopl-model" and meta["format_version"] == FORMAT_VERSION
-    assert meta["checksum"] == model_file.checksum(model.state_)
+    assert meta["checksum"] == model_file.checksum(model_arrays(model))
     assert (meta["n_primitives"], meta["kernel"], meta["n_grid"]) == (3, "rbf", 30)
     assert meta["bound"] == model.bound_ and meta["n_iter"] == model.n_iter_
     assert meta["explained_variance"] == model.explained_variance_
@@ -269,7 +269,7 @@ def drop_type(type_: str):
 
     def change(arrays, meta):
         g = list(arrays["types"]).index(type_)
-        for name, (_, axes, _) in model_file._ARRAYS.items():
+        for name, (_, axes, _) in model_file.ARRAYS.items():
             if "G" in axes:
                 arrays[name] = np.delete(arrays[name], g, axis=axes.index("G"))
 
@@ -376,14 +376,8 @@ def test_bundled_model_passes(bundled):
     model = load_model(model_path(None))
     assert model.n_primitives == bundled[1]["n_primitives"] and model.metadata_["robot"] == "talos"
     assert np.all(np.isfinite(model.predict(StepSpec("stop", 0.25, 0.0, "right")).values))
-    # reading checks every array and predicts every training step, yet stays fast
-    arrays, meta = bundled
-    seconds = []
-    for _ in range(3):
-        started = time.perf_counter()
-        model_file._validate(model_path(None), meta, arrays)
-        seconds.append(time.perf_counter() - started)
-    assert min(seconds) < 0.25, seconds
+    # the loaded model holds the file's arrays as they are (benchmarks/bench_primitives.py times the read)
+    assert checksum(model_arrays(model)) == bundled[1]["checksum"]
 
 
 def test_sound_edits_pass(bundled, tmp_path):

@@ -92,8 +92,8 @@ def test_swing_soles_keep_to_their_lanes(robot, motions):
 
 def test_soles_land_at_rest(robot, motions):
     """Every touchdown of every step lands at under 1 cm/s: the impulse model would absorb
-    any landing speed for free, a stiff position-controlled robot does not (README, "Soft
-    landings")."""
+    any landing speed for free, a stiff position-controlled robot does not (docs/method.md,
+    "Soft landings")."""
     for name, m in motions.items():
         speeds = landing_speeds(robot, m)
         assert len(speeds) >= 1, name
@@ -109,7 +109,7 @@ def test_mirror_of_mirror_is_identity_and_mirrored_motion_is_dynamic(robot, moti
     a = finite_difference_accelerations(mirrored.t, mirrored.v)
     keep = np.flatnonzero(np.diff(mirrored.t) > 0)
     res = inverse_dynamics_residual(
-        robot, mirrored.q[keep], mirrored.v[keep], a[keep], mirrored.tau[keep], mirrored.wrenches[keep]
+        robot, mirrored.q[keep], mirrored.v[keep], a=a[keep], tau=mirrored.tau[keep], wrenches=mirrored.wrenches[keep]
     )
     assert np.abs(res).max() < 1e-6
 
@@ -144,7 +144,7 @@ def test_phase_timing_is_searched_and_the_cheapest_kept(robot):
     from cocomopl.ocp.solve import solve_length
 
     settings = replace(SMALL, ss_duration=0.6, ss_search_step=0.1, ss_bounds=(0.5, 0.7))
-    solutions, info = solve_length(robot, 0.2, settings, ("cyclic",))
+    solutions, info = solve_length(robot, 0.2, settings, kinds=("cyclic",))
     costs = {c["ss_duration"]: c["cost"] for c in info["duration_search"] if c["cost"] is not None}
     assert len(info["duration_search"]) >= 2, info["duration_search"]
     assert info["durations"][1] == min(costs, key=costs.get)
@@ -162,11 +162,11 @@ def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(rob
 
     walks = []
 
-    def warm_up_walk(robot, footstep, settings, guess=None, controls=None, neighbour=None):
+    def warm_up_walk(robot, footstep, settings, *, guess=None, controls=None, neighbour=None):
         walks.append(neighbour)
         return SimpleNamespace(xs=["neighbour's" if neighbour is not None else "own"])
 
-    def solve_with_retries(robot, spec, states, settings, guesses):
+    def solve_with_retries(robot, spec, states, *, settings, guesses):
         ok = neighbour_works or guesses[0] == ["own"]
         return (SimpleNamespace(stats={"cost": 1.0, "iterations": 10}) if ok else None), [{"guess": "warm start", "converged": ok}]
 
@@ -174,7 +174,7 @@ def test_a_cyclic_step_is_solved_afresh_only_where_its_neighbours_walk_fails(rob
     monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
     monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
     neighbour = np.zeros((3, 2))
-    solutions, info = ocp_solve.solve_length(robot, 0.2, replace(SMALL, ss_search_step=0.0), ("cyclic",),
+    solutions, info = ocp_solve.solve_length(robot, 0.2, replace(SMALL, ss_search_step=0.0), kinds=("cyclic",),
                                              neighbour_walk=neighbour)
     assert solutions["cyclic"] is not None
     assert walks == ([neighbour] if neighbour_works else [neighbour, None])
@@ -194,11 +194,11 @@ def test_a_continued_cyclic_step_that_needs_the_whole_budget_is_also_solved_afre
     settings = replace(SMALL, ss_search_step=0.0)
     walks = []
 
-    def warm_up_walk(robot, footstep, settings, guess=None, controls=None, neighbour=None):
+    def warm_up_walk(robot, footstep, settings, *, guess=None, controls=None, neighbour=None):
         walks.append(neighbour)
         return SimpleNamespace(xs=["neighbour's" if neighbour is not None else "own"])
 
-    def solve_with_retries(robot, spec, states, settings, guesses):
+    def solve_with_retries(robot, spec, states, *, settings, guesses):
         continued = guesses[0] == ["neighbour's"]
         stats = {"cost": 1.0, "iterations": settings.max_iterations} if continued else {"cost": own_cost, "iterations": 40}
         return SimpleNamespace(stats=stats), [{"guess": "warm start", "converged": True}]
@@ -207,7 +207,7 @@ def test_a_continued_cyclic_step_that_needs_the_whole_budget_is_also_solved_afre
     monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
     monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
     neighbour = np.zeros((3, 2))
-    solutions, info = ocp_solve.solve_length(robot, 0.2, settings, ("cyclic",), neighbour_walk=neighbour)
+    solutions, info = ocp_solve.solve_length(robot, 0.2, settings, kinds=("cyclic",), neighbour_walk=neighbour)
     assert walks == [neighbour, None]
     assert solutions["cyclic"].stats["cost"] == min(1.0, own_cost)
     assert info["duration_search"] == [{"ss_duration": SMALL.ss_duration, "cost": min(1.0, own_cost),
@@ -221,10 +221,10 @@ def test_a_continued_walk_takes_only_the_upper_body_from_its_neighbour(robot):
     from cocomopl.ocp.solve import continued_guess, initial_states, warm_up_plan
 
     plan = warm_up_plan(robot, 0.2, SMALL)
-    kinematic = np.array(initial_states(robot, plan, SMALL, "kinematic"))
-    neighbour = np.array(initial_states(robot, warm_up_plan(robot, 0.1, SMALL), SMALL, "kinematic"))
+    kinematic = np.array(initial_states(robot, plan, SMALL, guess="kinematic"))
+    neighbour = np.array(initial_states(robot, warm_up_plan(robot, 0.1, SMALL), SMALL, guess="kinematic"))
     neighbour[:, 7:] += 0.05  # every joint position and velocity moved
-    xs = np.array(continued_guess(robot, plan, SMALL, neighbour))
+    xs = np.array(continued_guess(robot, plan, SMALL, neighbour=neighbour))
     nq = robot.model.nq
     legs = np.array(robot.leg_joint_indices())
     upper = robot.upper_body_joint_indices()
@@ -239,9 +239,9 @@ def test_a_continued_walk_takes_only_the_upper_body_from_its_neighbour(robot):
 def test_descent_finds_the_grid_minimum():
     from cocomopl.ocp.solve import descend
 
-    assert descend(lambda x: (x - 0.9) ** 2, 0.6, 0.1, (0.5, 1.2)) == pytest.approx(0.9)
-    assert descend(lambda x: (x - 0.2) ** 2, 0.6, 0.1, (0.5, 1.2)) == pytest.approx(0.5)
-    assert descend(lambda x: x, 0.6, 0.0, (0.5, 1.2)) == 0.6
+    assert descend(lambda x: (x - 0.9) ** 2, 0.6, 0.1, bounds=(0.5, 1.2)) == pytest.approx(0.9)
+    assert descend(lambda x: (x - 0.2) ** 2, 0.6, 0.1, bounds=(0.5, 1.2)) == pytest.approx(0.5)
+    assert descend(lambda x: x, 0.6, 0.0, bounds=(0.5, 1.2)) == 0.6
 
 
 def _resolved_cyclic(robot, motions, **changes):
@@ -256,7 +256,8 @@ def _resolved_cyclic(robot, motions, **changes):
     x0 = np.concatenate([cyclic.q[0], cyclic.v[0]])
     warm = list(np.hstack([cyclic.q, cyclic.v]))
     settings = replace(SMALL, **changes)
-    return to_motion(robot, solve_step(robot, StepSpec("cyclic", 0.2, 0.2), {0.2: x0}, settings, warm), settings)
+    return to_motion(robot, solve_step(robot, StepSpec("cyclic", 0.2, 0.2), {0.2: x0}, settings=settings, guess=warm),
+                     settings)
 
 
 def test_torque_rate_term_smooths_torques(robot, motions):
@@ -353,13 +354,14 @@ def test_the_soles_gap_and_its_gradient_agree_with_the_meshes_and_finite_differe
     # the meshes' rounded toes and heels do: the gap errs on the safe side
     separation, still = foot_separation(robot), flat_placement(0.0, 0.0, 0.0)
     for length, width, turn in [(0.0, 0.0, 0.0), (0.0, 0.015, 25.0), (-0.15, 0.0, 17.0), (0.15, 0.015, 25.0)]:
-        landed = flat_placement(*footstep_pose(np.zeros(3), "right", length, width, -np.radians(turn), separation))
+        landed = flat_placement(*footstep_pose(np.zeros(3), "right", (length, width, -np.radians(turn)),
+                                               separation=separation))
         gap, meshes = soles_gap(robot, landed, still), soles_distance(robot, {"left": still, "right": landed})
         assert meshes - 0.005 <= gap <= meshes + 1e-4, (length, width, turn)
     assert soles_gap(robot, flat_placement(0.05, 0.1, 0.2), still) < 0  # overlapping soles have a negative gap
 
     state = crocoddyl.StateMultibody(robot.model)
-    residual = SoleGapResidual(robot, state, "left", flat_placement(0.0, -0.085, 0.3), robot.model.nv - 6)
+    residual = SoleGapResidual(robot, state, "left", stance=flat_placement(0.0, -0.085, 0.3), nu=robot.model.nv - 6)
     shared = crocoddyl.DataCollectorMultibody(robot.model.createData())
     data = residual.createData(shared)
     q = robot.q_ref.copy()
@@ -388,9 +390,9 @@ def test_a_turning_swing_keeps_the_settings_gap_or_the_least_of_its_lift_off_and
 
     settings, stance = OCPSettings(), flat_placement(0.0, 0.0, 0.0)
     ahead = Phase("ss", 4, "left", (-0.3, 0.17), (0.3, 0.17), 0.0, 0.0)
-    assert swing_gap(robot, ahead, stance, settings) is None  # soles facing ahead keep to their lanes
+    assert swing_gap(robot, ahead, stance, settings=settings) is None  # soles facing ahead keep to their lanes
     turning = Phase("ss", 4, "left", (-0.3, 0.17), (0.3, 0.2), 0.0, np.radians(10))
-    assert swing_gap(robot, turning, stance, settings) == settings.sole_gap  # far apart at both ends
+    assert swing_gap(robot, turning, stance, settings=settings) == settings.sole_gap  # far apart at both ends
     close = Phase("ss", 4, "left", (-0.3, 0.17), (0.0, 0.185), 0.0, np.radians(25))  # a 25-degree gait's landing
-    assert 0.0 < swing_gap(robot, close, stance, settings) < settings.sole_gap
-    assert swing_gap(robot, ahead, flat_placement(0.0, 0.0, 0.2), settings) is not None  # a turned stance sole
+    assert 0.0 < swing_gap(robot, close, stance, settings=settings) < settings.sole_gap
+    assert swing_gap(robot, ahead, flat_placement(0.0, 0.0, 0.2), settings=settings) is not None  # a turned stance sole

@@ -168,11 +168,11 @@ def test_an_empty_folder_is_replaced_and_a_foreign_one_refused(tmp_path):
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("the user's")
-    with pytest.raises(Error, match="not empty and not a cocomopl report .it holds notes.txt"), report_folder(mine):
+    with pytest.raises(Error, match=r"not empty and not a cocomopl report .it holds notes.txt"), report_folder(mine):
         pytest.fail("entered")
     report = fake_report(tmp_path / "report", **{"a.png": ""})
     (report / "notes.txt").write_text("added by the user")
-    with pytest.raises(Error, match="also holds notes.txt"), report_folder(report):
+    with pytest.raises(Error, match=r"also holds notes.txt"), report_folder(report):
         pytest.fail("entered")
     assert (mine / "notes.txt").read_text() == "the user's" and (report / "notes.txt").exists()
     assert not [p for p in tmp_path.iterdir() if "cocomopl-tmp" in p.name]
@@ -284,3 +284,15 @@ def test_a_bug_keeps_its_traceback(step_file, tmp_path, monkeypatch):
     with pytest.raises(ZeroDivisionError):
         main(["plot", str(step_file), "--out", str(tmp_path / "plots")])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_refused_export_warns_of_no_replacement_and_a_done_one_does(step_file, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    Path("walk.csv").write_text("an earlier export")
+    # refused after the outputs were checked: the motion is not the robot's
+    assert_error_line(*cocomopl(capsys, "export", step_file, "--format", "csv", "--out", "walk", "--robot", "romeo"),
+                      "the motion is for robot 'talos', not 'romeo'")
+    assert Path("walk.csv").read_text() == "an earlier export"
+    assert cocomopl(capsys, "export", step_file, "--format", "csv", "--out", "walk", "--force") == (
+        0, "cocomopl: warning: replacing walk.csv\n")
+    assert Path("walk.csv").read_text() != "an earlier export"

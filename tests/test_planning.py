@@ -37,8 +37,8 @@ def test_relative_footstep_inverts_footstep_pose(robot):
         other = np.array([*rng.uniform(-2, 2, 2), rng.uniform(-math.pi, math.pi)])
         side = str(rng.choice(["left", "right"]))
         footstep = Footstep(rng.uniform(-0.15, 0.4), rng.uniform(-0.05, 0.15), rng.uniform(-0.4, 0.4))
-        landed = footstep_pose(other, side, *footstep, separation)
-        np.testing.assert_allclose(relative_footstep(robot, other, landed, side), footstep, atol=1e-12)
+        landed = footstep_pose(other, side, footstep, separation=separation)
+        np.testing.assert_allclose(relative_footstep(robot, other, landed, side=side), footstep, atol=1e-12)
 
 
 def test_a_walk_and_its_landings_round_trip_through_a_footstep_file(robot, tmp_path):
@@ -67,11 +67,11 @@ def test_a_gait_turning_25_degrees_steps_out_so_the_feet_stay_clear(robot, lengt
     for lateral in (0.0, 0.15, -0.15):
         lead, trail = steady_gait(length, lateral, turn)
         assert lead.width > max(lateral, 0.0) and trail.width > max(-lateral, 0.0)
-        check_footstep(robot, "left", *lead)
-        check_footstep(robot, "right", *trail)
+        check_footstep(robot, "left", lead)
+        check_footstep(robot, "right", trail)
     if length <= 0.0:
         with pytest.raises(Error, match="from the left one"):
-            check_footstep(robot, "right", length, 0.0, -turn)
+            check_footstep(robot, "right", (length, 0.0, -turn))
     assert steady_gait(length, 0.1, 0.0) == (Footstep(length, 0.1, 0.0), Footstep(length, 0.0, 0.0))
 
 
@@ -85,7 +85,7 @@ def test_the_planner_ends_at_the_goal_on_footsteps_in_range_and_clear_of_each_ot
     assert abs(math.degrees(end[2]) - yaw) < 0.1
     for spec in specs:
         footstep = spec.start_footstep if spec.kind == "stop" else spec.end_footstep
-        check_footstep(robot, spec.swing_side, *footstep)
+        check_footstep(robot, spec.swing_side, footstep)
     # the fewest steps: one landing fewer cannot reach it within the range
     assert len(specs) >= 2
 
@@ -107,13 +107,13 @@ def test_a_walk_through_goals_stops_at_each_and_ends_at_the_last(robot):
 
 
 def test_the_planner_keeps_to_a_model_s_range_and_says_why_it_cannot(robot):
-    specs = plan_to_goal(robot, (1.2, 0.0, 0.0), STRAIGHT_RANGE)
+    specs = plan_to_goal(robot, (1.2, 0.0, 0.0), limits=STRAIGHT_RANGE)
     assert all(s.straight and (s.kind == "stop" or 0.15 <= s.end_length <= 0.4) for s in specs)
     with pytest.raises(Error, match="straight steps"):
-        plan_to_goal(robot, (0.0, 0.4, 0.0), STRAIGHT_RANGE)
+        plan_to_goal(robot, (0.0, 0.4, 0.0), limits=STRAIGHT_RANGE)
     forward_only = {"length": (0.1, 0.2), "width": (0.0, 0.05), "turn": (-0.05, 0.05)}
-    with pytest.raises(Error, match="no steady walk .* length 100 mm..200 mm"):
-        plan_to_goal(robot, (-1.0, 0.0, 0.0), forward_only)
+    with pytest.raises(Error, match=r"no steady walk .* length 100 mm..200 mm"):
+        plan_to_goal(robot, (-1.0, 0.0, 0.0), limits=forward_only)
 
 
 @pytest.mark.parametrize("text, words", [
@@ -219,8 +219,9 @@ def test_a_goal_is_planned_within_the_models_support():
     """Seed 6's random goal -0.352, 0.092, -58.8 deg: the bundled model's shortest plan starts
     with a step 0.14 away from its training steps; the planner finds one within."""
     from cocomopl.pipeline import generate_walk
+    from cocomopl.requests import Goals, WalkRequest
 
-    walk = generate_walk(goal=(-0.352, 0.092, math.radians(-58.8)))
+    walk = generate_walk(WalkRequest(Goals([(-0.352, 0.092, math.radians(-58.8))])))
     assert all(step.in_support for step in walk.steps) and not walk.warnings
 
 
@@ -243,6 +244,6 @@ def test_a_goal_with_no_supported_plan_gets_the_plan_in_range_unless_strict(robo
     monkeypatch.setattr(goal, "MAX_LANDINGS", 6)  # a plan refused at every length is tried at each
     model = _NothingSupported(load_model(BUNDLED_OMNI_MODEL))
     goals = [(0.6, 0.0, 0.0)]
-    assert plan_in_support(robot, model, goals) == plan_through(robot, goals, model.footstep_range())
+    assert plan_in_support(robot, model, goals) == plan_through(robot, goals, limits=model.footstep_range())
     with pytest.raises(Error, match="the model's support"):
         plan_in_support(robot, model, goals, strict=True)

@@ -6,7 +6,7 @@ from pathlib import Path
 import matplotlib.image
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.colors import same_color
+from matplotlib.colors import same_color, to_hex
 
 from cocomopl.analysis import plots, report_plots
 from cocomopl.analysis.plots import SIDE_COLOURS, joint_label, palette, short_title
@@ -14,11 +14,12 @@ from cocomopl.analysis.viewer import write_html_viewer
 from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
 from cocomopl.motion_file import read_motion
 from cocomopl.pipeline import generate_walk
+from cocomopl.requests import StraightSteps, WalkRequest
 
 
 @pytest.fixture(scope="module")
 def walk():
-    return generate_walk([0.15, 0.35, 0.35], BUNDLED_MODEL)  # start, transition, stop
+    return generate_walk(WalkRequest(StraightSteps([0.15, 0.35, 0.35]), model=BUNDLED_MODEL))  # start, transition, stop
 
 
 @pytest.fixture(scope="module")
@@ -82,10 +83,12 @@ def _overlaps_an_axes(fig) -> list[str]:
 def test_motion_and_comparison_plots_share_conventions(walk, oc_step, saved_figures, tmp_path):
     robot = walk.robot
     paths = plots.plot_motion(robot, walk.motion, tmp_path / "motion")
-    paths += report_plots.plot_comparison(robot, {"OC": oc_step, "generated": walk.motion}, tmp_path / "comparison")
+    paths += report_plots.plot_comparison(robot, {"OC": oc_step, "generated": walk.motion}, tmp_path / "comparison",
+                                          top_view=True, goals=[(0.85, 0.0, 0.0)])
     assert {p.name for p in paths} == {
         "joint_angles.png", "zmp.png", "contact_forces.png", "torques.png",
         "zmp_comparison.png", "force_comparison.png", "knee_torque_comparison.png", "leg_joint_comparison.png",
+        "footsteps.png",
     }
     assert all(matplotlib.image.imread(p).shape[0] > 100 for p in paths)
     assert set(saved_figures) == {p.name for p in paths}
@@ -100,6 +103,10 @@ def test_motion_and_comparison_plots_share_conventions(walk, oc_step, saved_figu
         }
         assert feet.keys() == SIDE_COLOURS.keys(), name
         assert all(same_color(colour, SIDE_COLOURS[side]) for side, colour in feet.items()), name
+    # and the soles in the top view: one filled sole per stance of the walk, in its side's colour
+    soles = [patch for patch in saved_figures["footsteps.png"].axes[0].patches if patch.get_fill()]
+    assert len(soles) == 2 + len(walk.motion.steps) + 1  # the start, a landing per step, the stop's closing step
+    assert {to_hex(patch.get_facecolor()[:3]) for patch in soles} == set(SIDE_COLOURS.values())
 
     titles = {name: [ax.get_title() for ax in fig.axes if ax.get_title()] for name, fig in saved_figures.items()}
     assert all(t.startswith(short_title(walk.motion) + ":") for p in paths[:4] for t in titles[p.name])

@@ -4,7 +4,10 @@ A deliberately small model (3 primitives, 30 grid points, 30 L-BFGS iterations) 
 once on the bundled dataset; the tests check properties, not accuracy.
 """
 
+import itertools
 import json
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -15,8 +18,8 @@ from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, parse_sequence_mm, sequence_specs
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.primitives.model_file import model_arrays
 from cocomopl.primitives.training import (
-    learned_parts,
     load_training_steps,
     phase_templates,
     resample,
@@ -53,7 +56,7 @@ def test_time_normalisation_aligns_phase_boundaries(steps):
     templates = phase_templates(steps)
     for spec, pt in zip(steps.specs, steps.phase_time):
         b = templates[step_type(spec)]
-        assert len(b) == int(round(pt[-1])) + 1
+        assert len(b) == round(pt[-1]) + 1
         assert b[0] == 0.0 and b[-1] == 1.0 and np.all(np.diff(b) > 0)
     # the grid values at the ends are the step's first and last samples
     X = resample(steps.subset([0]), templates, np.linspace(0, 1, 7))
@@ -75,7 +78,7 @@ def test_cutting_stops_at_their_middle_touchdown_keeps_every_sample(steps):
         np.testing.assert_array_equal(np.concatenate([parts.durations[j], parts.durations[j + 1]]), steps.durations[k])
     templates = phase_templates(parts, types)
     assert len(templates[types[first[0]]]) == 3 and len(templates[types[first[0] + 1]]) == 4
-    X = resample(parts, templates, np.linspace(0, 1, 5), types)
+    X = resample(parts, templates, np.linspace(0, 1, 5), types=types)
     np.testing.assert_array_equal(X[first[0], :, -1], X[first[0] + 1, :, 0])
     with pytest.raises(Error, match="cannot cut it at phase 5"):
         split_phases(steps, "stop", 5)
@@ -89,14 +92,15 @@ def test_gradient_matches_finite_differences(steps):
     from jax.flatten_util import ravel_pytree
 
     from cocomopl.primitives.bound import free_energy
-    from cocomopl.primitives.estimator import _SlotLayout
+    from cocomopl.primitives.estimator import SlotLayout
     from cocomopl.primitives.optimise import initial_parameters
 
     few = steps.subset(range(0, len(steps), 4))
     tau = np.linspace(0, 1, 12)
-    layout = _SlotLayout(few, [step_type(s) for s in few.specs])
+    layout = SlotLayout(few, [step_type(s) for s in few.specs])
     X = resample(few, phase_templates(few), tau)
-    params, data = initial_parameters(layout.to_slots(X), layout.mask, layout.d2, tau, 2, np.ones(X.shape[1]))
+    params, data = initial_parameters(layout.to_slots(X), layout.mask, layout.d2, tau=tau, S=2,
+                                      signal_weights=np.ones(X.shape[1]))
     rng = np.random.default_rng(0)
     params = {k: v + 0.05 * rng.standard_normal(np.shape(v)) for k, v in params.items()}
     flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
@@ -114,17 +118,77 @@ def test_fit_reports_bound_and_explained_variance(model, steps):
     assert np.isfinite(model.bound_)
     assert set(model.explained_variance_) == {"joints", "zmp", "pelvis"}
     assert all(0.8 < v <= 1.0 for v in model.explained_variance_.values())
-    # it is that of the learned trajectories (the steps, stops in their two parts) predicted
-    # from their specs
-    from cocomopl.primitives.estimator import explained_variance
-
-    parts, types = learned_parts(steps)
-    X = resample(parts, phase_templates(parts, types), model.state_["tau"], types)
-    X_hat = np.stack([model._predict_type(t, [spec])[0].values.T for t, spec in zip(types, parts.specs)])
-    for group, value in explained_variance(X, X_hat, steps.signal_names).items():
-        assert value == pytest.approx(model.explained_variance_[group], abs=1e-3)
     # whole steps, each stop's second part conditioned on its first, score a little lower
     assert 0.5 < model.score(steps) <= 1.0
+
+
+def test_explained_variance_is_one_when_exact_zero_at_the_means_and_per_group(steps):
+    from cocomopl.primitives.estimator import explained_variance, signal_groups
+
+    names = steps.signal_names
+    X = resample(steps, phase_templates(steps), np.linspace(0, 1, 20))
+    means = np.broadcast_to(X.mean(axis=(0, 2), keepdims=True), X.shape)
+    assert explained_variance(X, X, names) == {"joints": 1.0, "zmp": 1.0, "pelvis": 1.0}
+    np.testing.assert_allclose(list(explained_variance(X, means, names).values()), 0.0, atol=1e-12)
+    # half of each ZMP deviation missed leaves a quarter of its variance, and the other groups whole
+    zmp = signal_groups(names)["zmp"]
+    halfway = X.copy()
+    halfway[:, zmp] = (X[:, zmp] + means[:, zmp]) / 2
+    scores = explained_variance(X, halfway, names)
+    assert scores["zmp"] == pytest.approx(0.75, abs=1e-12) and scores["joints"] == scores["pelvis"] == 1.0
+
+
+def _short_cyclic(steps, low: float, high: float):
+    return steps.subset(k for k, s in enumerate(steps.specs) if s.kind == "cyclic" and low <= s.start_length <= high)
+
+
+def test_more_primitives_explain_more_of_every_group(steps):
+    cyclic = _short_cyclic(steps, 0.0, 0.25)
+    one, three = (MovementPrimitives(n_primitives=S, n_grid=15, max_iterations=5).fit(cyclic) for S in (1, 3))
+    for group, value in one.explained_variance_.items():
+        assert three.explained_variance_[group] > value, group
+
+
+def test_a_second_fit_on_other_steps_predicts_as_a_fresh_fit(steps):
+    """Whatever prediction derived from the first fit (per-type solves, the primitives'
+    moments, the signal names) goes with it: the refitted model predicts exactly as a new one."""
+    first, second = _short_cyclic(steps, 0.0, 0.25), _short_cyclic(steps, 0.3, 0.4)
+    settings = {"n_primitives": 2, "n_grid": 15, "max_iterations": 3}
+    model = MovementPrimitives(**settings).fit(first).prepare()
+    spec, other = first.specs[0], second.specs[0]
+    assert np.all(model.predict(spec, start=model.predict(spec).values[-1]).std >= 0)  # every cache filled
+    model.fit(second)
+    fresh = MovementPrimitives(**settings).fit(second)
+    assert model.types == fresh.types and model.signal_names == fresh.signal_names
+    for name, value in model_arrays(fresh).items():
+        np.testing.assert_array_equal(model_arrays(model)[name], value, err_msg=name)
+    for s in (spec, other):
+        start = fresh.predict(other).values[-1]
+        for refitted, new in ((model.predict(s), fresh.predict(s)), (model.predict(s, start), fresh.predict(s, start))):
+            np.testing.assert_array_equal(refitted.values, new.values)
+            np.testing.assert_array_equal(refitted.std, new.std)
+            np.testing.assert_array_equal(refitted.durations, new.durations)
+            assert (refitted.distance, refitted.in_support) == (new.distance, new.in_support)
+
+
+def test_without_jax_the_model_predicts_and_fit_names_the_extra_to_install():
+    """The base install has no JAX: loading and predicting need none, fitting says in one
+    line which extra to install, as the command line does."""
+    script = """
+import sys
+sys.modules["jax"] = None  # as on the base install: importing jax fails
+from cocomopl import BUNDLED_DATASET, BUNDLED_MODEL, Error, MovementPrimitives, StepSpec, load_training_steps
+from cocomopl.primitives.model_file import load_model
+load_model(BUNDLED_MODEL).predict(StepSpec("cyclic", 0.3, 0.3, "left")).values
+try:
+    MovementPrimitives().fit(load_training_steps(BUNDLED_DATASET))
+except Error as exc:
+    print(exc)
+"""
+    result = subprocess.run([sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == ("MovementPrimitives.fit needs the [train] extra: pip install 'cocomopl[train]' "
+                             "(or pip install -e '.[train]')\n")
 
 
 def test_prediction_at_training_step_has_training_duration(model, steps):
@@ -149,9 +213,9 @@ def test_a_stop_is_predicted_in_its_two_learned_parts_and_joined_at_its_middle_t
     joints = slice(0, 30)
     assert np.abs(step.values[cut[0] + 1, joints] - step.values[cut[0], joints]).max() < 1e-5
     # sampled in real time, the touchdown repeats its time with each part's own end values
-    from cocomopl.synthesis.world import _sample_step
+    from cocomopl.synthesis.world import sample_step
 
-    t, values, _ = _sample_step(step, 0.025)
+    t, values, _ = sample_step(step, 0.025)
     touchdown = np.flatnonzero(np.diff(t) == 0)
     assert t[touchdown[0]] == pytest.approx(step.phase_edges[2])
     np.testing.assert_allclose(values[touchdown[0]], step.values[cut[0]], atol=1e-12)
@@ -186,8 +250,8 @@ def test_conditioning_makes_the_sequence_continuous(model):
     chained = generate_steps(model, specs)
     free = [model.predict(s) for s in specs]
     joints = slice(0, 30)
-    chained_gap = max(np.abs(a.values[-1, joints] - b.values[0, joints]).max() for a, b in zip(chained, chained[1:]))
-    free_gap = max(np.abs(a.values[-1, joints] - b.values[0, joints]).max() for a, b in zip(free, free[1:]))
+    chained_gap = max(np.abs(a.values[-1, joints] - b.values[0, joints]).max() for a, b in itertools.pairwise(chained))
+    free_gap = max(np.abs(a.values[-1, joints] - b.values[0, joints]).max() for a, b in itertools.pairwise(free))
     assert chained_gap < 1e-5
     assert free_gap > 100 * chained_gap
 
@@ -198,7 +262,7 @@ def test_a_conditioned_start_is_as_uncertain_as_its_observation(model):
     specs = sequence_specs(list(M_GEN))
     start = model.predict(specs[0]).values[-1]
     free, chained = model.predict(specs[1]), model.predict(specs[1], start=start)
-    conditioned = ~model.state_["unconditioned"]
+    conditioned = ~model.unconditioned_
     # observed with a variance CONDITION_RATIO x the prediction's, the start keeps exactly that
     # observation's share: the weights' and the primitives' uncertainty both collapse there
     noise_level = free.std[0] * np.sqrt(CONDITION_RATIO / (1.0 + CONDITION_RATIO))
@@ -216,7 +280,7 @@ def test_a_conditioned_step_ends_where_its_footstep_puts_it(model):
     free = model.predict(specs[1])
     start = free.values[0] + 0.05
     chained = model.predict(specs[1], start=start)
-    conditioned = ~model.state_["unconditioned"]
+    conditioned = ~model.unconditioned_
     np.testing.assert_allclose(chained.values[0, conditioned], start[conditioned], atol=1e-6)
     np.testing.assert_allclose(chained.values[-1], free.values[-1], atol=1e-12)
     moved = np.abs(chained.values - free.values)[:, conditioned].max(axis=1)
@@ -231,9 +295,9 @@ def test_the_predicted_std_is_the_spread_of_sampled_signals(model):
     specs = sequence_specs(list(M_GEN))
     free = model.predict(specs[1])
     chained = model.predict(specs[1], start=model.predict(specs[0]).values[-1])
-    (part,), (m, m_var) = free._parts, free._primitives
+    (part,), (m, m_var) = free._parts, (model.m_, model.m_var_)
     w, var = part.weights, part.weight_var
-    c0 = model.state_["m_cov_start"]
+    c0 = model.m_cov_start_
     rng = np.random.default_rng(0)
     n, t = 20000, np.array([1, 2, 5, 15, 29])
     weights = w[None] + np.sqrt(var)[None] * rng.standard_normal((n, var.shape[-1]))[:, None, :]
@@ -248,9 +312,9 @@ def test_the_predicted_std_is_the_spread_of_sampled_signals(model):
     np.testing.assert_allclose(xt.std(axis=0), free.std[t], rtol=0.05)
     x0c, xtc = x0 - x0.mean(axis=0), xt - xt.mean(axis=0)
     beta = (xtc * x0c[:, None]).mean(axis=0) / (x0c**2).mean(axis=0)
-    taper = 0.5 * (1.0 + np.cos(np.pi * model.state_["tau"][t]))[:, None]
+    taper = 0.5 * (1.0 + np.cos(np.pi * model.tau_[t]))[:, None]
     left = (xtc - taper * beta * x0c[:, None]).std(axis=0)
-    conditioned = ~model.state_["unconditioned"]
+    conditioned = ~model.unconditioned_
     np.testing.assert_allclose(left[:, conditioned], chained.std[t][:, conditioned], rtol=0.05)
 
 
@@ -284,13 +348,13 @@ def test_out_of_support_warns_and_strict_refuses(model):
 
 def test_unknown_step_type_is_an_error(steps):
     cyclic = [k for k, s in enumerate(steps.specs) if s.kind == "cyclic"]
-    only_cyclic = MovementPrimitives(2, n_grid=15, max_iterations=5).fit(steps.subset(cyclic))
+    only_cyclic = MovementPrimitives(n_primitives=2, n_grid=15, max_iterations=5).fit(steps.subset(cyclic))
     with pytest.raises(Error, match="no start steps"):
         only_cyclic.predict(StepSpec("start", 0.0, 0.25, "left"))
 
 
 def test_parameters_round_trip_and_a_typo_is_refused():
-    model = MovementPrimitives(7, "matern32", n_grid=50, max_iterations=20, verbose=True)
+    model = MovementPrimitives(n_primitives=7, kernel="matern32", n_grid=50, max_iterations=20, verbose=True)
     assert model.get_params() == {"n_primitives": 7, "kernel": "matern32", "n_grid": 50, "max_iterations": 20,
                                   "verbose": True}
     assert MovementPrimitives(**model.get_params()).get_params() == model.get_params()
@@ -312,13 +376,13 @@ def test_repr_shows_the_parameters_that_differ_from_the_defaults(model):
 
 def test_verbose_shows_the_fit_progress_and_quiet_prints_nothing(steps, capfd):
     cyclic = steps.subset(k for k, s in enumerate(steps.specs) if s.kind == "cyclic" and s.start_length <= 0.25)
-    quiet = MovementPrimitives(2, n_grid=15, max_iterations=3).fit(cyclic)
+    quiet = MovementPrimitives(n_primitives=2, n_grid=15, max_iterations=3).fit(cyclic)
     assert capfd.readouterr() == ("", "")
-    shown = MovementPrimitives(2, n_grid=15, max_iterations=3, verbose=True).fit(cyclic)
+    shown = MovementPrimitives(n_primitives=2, n_grid=15, max_iterations=3, verbose=True).fit(cyclic)
     out, err = capfd.readouterr()
     assert out == "" and f"{shown.n_iter_}/3" in err and f"bound={shown.bound_:.8g}" in err
-    for name, value in quiet.state_.items():  # showing progress leaves the fit as it is
-        np.testing.assert_array_equal(shown.state_[name], value)
+    for name, value in model_arrays(quiet).items():  # showing progress leaves the fit as it is
+        np.testing.assert_array_equal(model_arrays(shown)[name], value, err_msg=name)
 
 
 def test_placed_walk_is_a_consistent_motion(robot):

@@ -38,7 +38,7 @@ PYTHON_SHRINK = {r"n_primitives=\d+": "n_primitives=3", r"max_iterations=\d+": "
 
 
 def blocks(language: str) -> list[str]:
-    return re.findall(rf"^```{language}\n(.*?)^```", README.read_text(), flags=re.M | re.S)
+    return re.findall(rf"^```{language}\n(.*?)^```", README.read_text(), flags=re.MULTILINE | re.DOTALL)
 
 
 def commands() -> list[list[str]]:

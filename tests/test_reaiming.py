@@ -6,16 +6,17 @@ the decision logic with a generator that only records the steps it is given, and
 rollout once end to end without the stabilizer.
 """
 
+import itertools
 import json
 import math
 
 import numpy as np
 import pytest
 
-from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, sole_poses
 from cocomopl.motion import StepSpec
-from cocomopl.pipeline import PLAN_DT, generate_walk, reaiming_for, recovery_for
+from cocomopl.pipeline import PLAN_DT, generate_walk, reaiming_for
+from cocomopl.requests import Goals, WalkRequest
 from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.reaiming import SETTLED, Reaiming, landing_targets, reaimed_specs
 from cocomopl.sim.rollout import simulate
@@ -29,7 +30,7 @@ LIMITS = {"length": (-0.15, 0.4), "width": (0.0, 0.15), "turn": (-math.radians(2
 
 @pytest.fixture(scope="module")
 def walk():
-    return generate_walk(goal=(0.2, 0.3, math.radians(20)))
+    return generate_walk(WalkRequest(Goals([(0.2, 0.3, math.radians(20))])))
 
 
 def stance_of(specs, step):
@@ -56,7 +57,7 @@ def test_a_reaimed_step_lands_where_the_plan_did_from_where_the_robot_stands(wal
     assert new[: step - 1] == specs[: step - 1]
     assert new[step + 2 :] == specs[step + 2 :]
     assert {s.kind for s in new[step - 1 : step + 2]} <= {"cyclic", "transition"}
-    for a, b in zip(new, new[1:]):
+    for a, b in itertools.pairwise(new):
         if b.kind != "start":
             assert b.start_footstep == a.end_footstep
 
@@ -99,7 +100,7 @@ def test_each_step_is_reaimed_once_after_its_stance_sole_settled(walk):
     reaiming = Reaiming(walk.robot, walk.motion, generate, walk.model.footstep_range())
     motion = walk.motion
     t = motion.t - motion.t[0]
-    kind, first, last = next(p for p in motion.phases if p[0] == "ss" and np.searchsorted(motion.step_starts, p[1], side="right") - 1 == 2)
+    _kind, first, last = next(p for p in motion.phases if p[0] == "ss" and np.searchsorted(motion.step_starts, p[1], side="right") - 1 == 2)
     soles = {side: pose + np.array([-0.005, 0.0, 0.0]) for side, pose in sole_poses(walk.robot, reaiming.specs)[2].items()}
     early = t[first] + 0.5 * SETTLED * (t[last] - t[first])
     assert reaiming.check(float(early), soles) is None and not asked
@@ -113,7 +114,7 @@ def test_each_step_is_reaimed_once_after_its_stance_sole_settled(walk):
 def test_reaiming_without_the_stabilizer_replans_every_step_it_can_in_simulation(walk):
     sim = build_sim_model(walk.robot, visuals=False)
     reaiming = reaiming_for(walk)
-    rollout = simulate(sim, walk.motion, stabilizer=False, reaiming=reaiming)
+    rollout = simulate(sim, walk.motion, stabilizer=False, replanner=reaiming)
     assert not rollout.fell
     changes = rollout.measured.meta["reaimed"]
     steps = walk.motion.steps
@@ -122,8 +123,6 @@ def test_reaiming_without_the_stabilizer_replans_every_step_it_can_in_simulation
     # the rollout followed the last walk generated
     assert rollout.measured.steps == reaiming.motion.steps
     assert all(isinstance(s, StepSpec) for s in reaiming.specs)
-    with pytest.raises(Error, match="use one of them"):
-        simulate(sim, walk.motion, recovery=recovery_for(walk), reaiming=reaiming_for(walk))
 
 
 @pytest.mark.parametrize("option, reaimed", [((), True), (("--no-reaim",), False)])
@@ -145,13 +144,13 @@ def test_reaiming_with_another_replanner_is_refused(tmp_path, extra):
 
 
 def test_a_stretch_placed_again_joins_the_walk_where_it_stands_still():
-    two = generate_walk(goal=[(0.2, 0.0, 0.0), (0.2, 0.15, 0.0)])
+    two = generate_walk(WalkRequest(Goals([(0.2, 0.0, 0.0), (0.2, 0.15, 0.0)])))
     motion, specs = two.motion, list(two.motion.steps)
     second = max(k for k, s in enumerate(specs) if s.kind == "start")
     steps = generate_steps(two.model, specs)
     a = int(motion.step_starts[second])
-    late = replace_stretch(two.robot, motion, steps, second + 1, PLAN_DT)
-    early = replace_stretch(two.robot, motion, steps, 1, PLAN_DT)
+    late = replace_stretch(two.robot, motion, steps, step=second + 1, dt=PLAN_DT)
+    early = replace_stretch(two.robot, motion, steps, step=1, dt=PLAN_DT)
     # the other stretch keeps its samples
     assert np.array_equal(late.q[:a], motion.q[:a]) and np.array_equal(early.q[a:], motion.q[a:])
     for changed in (late, early):

@@ -13,6 +13,7 @@ import pytest
 from cocomopl.errors import Error
 from cocomopl.pipeline import generate_walk, recovery_for
 from cocomopl.planning.footsteps import landing_footsteps
+from cocomopl.requests import Goals, WalkRequest
 from cocomopl.sim.mujoco_model import build_sim_model
 from cocomopl.sim.perturbations import Push, parse_push
 from cocomopl.sim.recovery import LATEST, StepRecovery
@@ -23,7 +24,7 @@ from conftest import assert_one_line_error, run_cli
 
 @pytest.fixture(scope="module")
 def walk():
-    return generate_walk(goal=(2.0, 0.0, 0.0))
+    return generate_walk(WalkRequest(Goals([(2.0, 0.0, 0.0)])))
 
 
 def recording(walk):
@@ -92,13 +93,13 @@ def test_a_pushed_walk_replans_towards_the_push_in_simulation(walk):
     outward = 1.0 if swing == "left" else -1.0
     sim = build_sim_model(walk.robot, visuals=False)
     recovery = recovery_for(walk)
-    rollout = simulate(sim, walk.motion, pushes=[Push(start, (0.0, outward * 300.0))], recovery=recovery)
+    rollout = simulate(sim, walk.motion, pushes=[Push(start, (0.0, outward * 300.0))], replanner=recovery)
     changes = rollout.measured.meta["recoveries"]
     assert changes and changes[0]["landing"] == 2 and outward * changes[0]["shift_m"][1] > 0
     # the rollout followed the changed walk: the measured steps are its steps
     assert rollout.measured.steps == recovery.motion.steps
     with pytest.raises(Error, match="needs the stabilizer"):
-        simulate(sim, walk.motion, stabilizer=False, recovery=recovery_for(walk))
+        simulate(sim, walk.motion, stabilizer=False, replanner=recovery_for(walk))
 
 
 @pytest.mark.parametrize("text", ["1,2", "1,x,2", "-1,0,10", "1,0,1e9", "nan,0,0"])

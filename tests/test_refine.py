@@ -15,7 +15,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
 from cocomopl.ocp.contact_controls import inverse_dynamics_controls
-from cocomopl.ocp.first_knot import _barrier_qp, first_knot_step, full_step
+from cocomopl.ocp.first_knot import barrier_qp, first_knot_step, full_step
 from cocomopl.ocp.problems import build_problem
 from cocomopl.ocp.refine import (
     best_expected_decrease,
@@ -30,6 +30,7 @@ from cocomopl.ocp.refine import (
 )
 from cocomopl.ocp.solve import prepared_problem, step_plan
 from cocomopl.pipeline import generate_walk
+from cocomopl.requests import Goals, StraightSteps, WalkRequest
 from cocomopl.robot import mirror_joints
 
 from conftest import SMALL, SMALL_LENGTH, assert_one_line_error, run_cli
@@ -37,17 +38,17 @@ from conftest import SMALL, SMALL_LENGTH, assert_one_line_error, run_cli
 
 @pytest.fixture(scope="module")
 def walk():
-    return generate_walk([SMALL_LENGTH, SMALL_LENGTH])
+    return generate_walk(WalkRequest(StraightSteps([SMALL_LENGTH, SMALL_LENGTH])))
 
 
 def test_a_warm_start_converges_in_fewer_iterations_than_cold_at_no_higher_cost(robot, small_dataset):
     motions, _ = read_motions(small_dataset)
     cyclic = motions[StepSpec("cyclic", SMALL_LENGTH, SMALL_LENGTH).name]
     states = np.hstack([cyclic.q, cyclic.v])
-    plan = step_plan(robot, cyclic.steps[0], {SMALL_LENGTH: states[0]}, SMALL)
+    plan = step_plan(robot, cyclic.steps[0], {SMALL_LENGTH: states[0]}, settings=SMALL)
     # the solved step itself, torques included, as a perfect generator would give it
     controls = [np.zeros(0) if k in cyclic.impacts else cyclic.tau[k] for k in range(len(states) - 1)]
-    warm = solve_warm(robot, plan, SMALL, list(states), controls)
+    warm = solve_warm(robot, plan, SMALL, xs=list(states), us=controls)
     cold = cold_solve(robot, plan, SMALL)
     assert warm.stats["converged"] and cold.stats["converged"]
     assert warm.stats["iterations"] < cold.stats["iterations"]
@@ -67,7 +68,7 @@ def test_a_solved_steps_states_are_realised_by_inverse_dynamics_inside_its_cones
     motions, _ = read_motions(small_dataset)
     cyclic = motions[StepSpec("cyclic", SMALL_LENGTH, SMALL_LENGTH).name]
     states = [np.concatenate([q, v]) for q, v in zip(cyclic.q, cyclic.v)]
-    problem = build_problem(robot, step_plan(robot, cyclic.steps[0], {SMALL_LENGTH: states[0]}, SMALL), SMALL)
+    problem = build_problem(robot, step_plan(robot, cyclic.steps[0], {SMALL_LENGTH: states[0]}, settings=SMALL), SMALL)
     controls = inverse_dynamics_controls(robot, problem, states)
     problem.calc(states, controls)
     for k, (knot, data) in enumerate(zip(problem.runningModels, problem.runningDatas)):
@@ -176,7 +177,7 @@ def test_a_solved_step_guess_is_the_same_wherever_the_step_stands(robot, bundled
 
     step = bundled_steps[name]
     guess = solved_step_guess(robot, step)
-    states = turn_state(robot, translate_state(robot, np.hstack([step.q, step.v]), 0.7, -1.3), 0.6)
+    states = turn_state(robot, translate_state(robot, np.hstack([step.q, step.v]), (0.7, -1.3)), 0.6)
     moved = dataclasses.replace(step, q=states[:, : robot.model.nq], v=states[:, robot.model.nq :])
     np.testing.assert_allclose(solved_step_guess(robot, moved).states, guess.states, atol=1e-9)
     assert guess.spec.swing_side == "left"
@@ -209,9 +210,9 @@ def test_a_step_ending_at_a_trained_length_is_held_to_the_datasets_gait_state(ro
     cyclic = motions[StepSpec("cyclic", SMALL_LENGTH, SMALL_LENGTH).name]
     gait = np.concatenate([cyclic.q[0], cyclic.v[0]])
     start = step_guesses(robot, walk.motion)[0]  # the start step, ending at SMALL_LENGTH
-    held = step_plan_from(robot, start, None, SMALL, gait_states={SMALL_LENGTH: gait})
+    held = step_plan_from(robot, start, None, settings=SMALL, gait_states={SMALL_LENGTH: gait})
     np.testing.assert_array_equal(held.x_target, next_step_state(robot, gait, landing_point(held.phases)))
-    free = step_plan_from(robot, start, None, SMALL, gait_states={0.3: gait})
+    free = step_plan_from(robot, start, None, settings=SMALL, gait_states={0.3: gait})
     np.testing.assert_array_equal(free.x_target, still_soles(robot, start.states[-1]))
 
 
@@ -244,7 +245,7 @@ def test_a_gait_state_between_trained_footsteps_is_interpolated_on_their_grid(ro
 def test_a_turning_walk_is_refined_on_its_own_footsteps(robot):
     """Each step's guess is turned into its stance sole's frame and the refined steps are
     turned back: the refined walk obeys the dynamics and ends on the generated walk's feet."""
-    walk = generate_walk(goal=(0.15, 0.05, np.radians(15)))
+    walk = generate_walk(WalkRequest(Goals([(0.15, 0.05, np.radians(15))])))
     assert not all(spec.straight for spec in walk.motion.steps)
     refined = refine_walk(robot, walk.motion, SMALL)
     assert all(row["converged"] for row in refined.steps)
@@ -278,7 +279,7 @@ def test_the_first_knots_step_minimises_its_barriers_exactly():
         past = np.maximum(rows - ub, 0.0) + np.minimum(rows - lb, 0.0)
         return Qu @ du + 0.5 * du @ Quu @ du + 0.5 * np.sum(weights * past**2)
 
-    step = _barrier_qp(Quu, Qu, Ru, r, lb, ub, weights, du_lb, du_ub)
+    step = barrier_qp(Quu, Qu, Ru, r=r, lb=lb, ub=ub, weights=weights, du_lb=du_lb, du_ub=du_ub)
     reference = minimize(exact, np.zeros(nu), bounds=list(zip(du_lb, du_ub)), method="L-BFGS-B",
                          options={"ftol": 1e-15, "gtol": 1e-12, "maxiter": 10000})
     assert exact(step) <= reference.fun + 1e-7
@@ -300,11 +301,11 @@ def test_the_first_full_step_keeps_the_pinned_knots_wrench_at_its_cones(robot, b
     settings = OCPSettings.from_saved(read_motions(BUNDLED_DATASET, dataset=True)[1]["settings"])
     gait = {m.steps[0].start_length: np.concatenate([m.q[0], m.v[0]]) for m in bundled_steps.values()
             if m.steps[0].kind == "cyclic" and m.steps[0].swing_side == "left"}
-    plan = step_plan(robot, bundled_steps["transition_200_250_L"].steps[0], gait, settings)
+    plan = step_plan(robot, bundled_steps["transition_200_250_L"].steps[0], gait, settings=settings)
     guess = solved_step_guess(robot, bundled_steps["transition_200_150_L"])
-    xs = warm_start(robot, guess, plan.phases, plan.x0, settings.dt, NEAREST_START_BLEND_S)[0]
-    _, solver, xs, us = prepared_problem(robot, plan, settings, xs,
-                                         lambda problem, states: inverse_dynamics_controls(robot, problem, states))
+    xs = warm_start(robot, guess, plan.phases, x0=plan.x0, dt=settings.dt, fade_s=NEAREST_START_BLEND_S)[0]
+    _, solver, xs, us = prepared_problem(robot, plan, settings, xs=xs,
+                                         us=lambda problem, states: inverse_dynamics_controls(robot, problem, states))
     solver.setCandidate(xs, us, False)
     solver.computeDirection(True)
     states, controls, cost = full_step(solver, first_knot_step(solver))

@@ -87,7 +87,7 @@ def test_the_best_candidate_keeps_the_selection_settings_and_predicts(selected, 
 def test_an_impossible_candidate_is_refused_before_any_fit(cyclic):
     with pytest.raises(Error, match="500 primitives cannot exceed"):
         select_model(cyclic, n_primitives=(2, 500), kernels=("rbf",))
-    with pytest.raises(Error, match="unknown kernel 'cubic'"):
+    with pytest.raises(Error, match="kernel must be one of rbf, matern32, matern52, not 'cubic'"):
         select_model(cyclic, n_primitives=(2,), kernels=("rbf", "cubic"))
 
 
@@ -108,5 +108,5 @@ class _DiesInWorker(TrainingSteps):
 
 def test_a_training_process_that_dies_is_an_error_not_a_hang(cyclic):
     steps = _DiesInWorker(*(getattr(cyclic, f.name) for f in dataclasses.fields(cyclic)))
-    with pytest.raises(Error, match="a training process died .*run the same command again"):
+    with pytest.raises(Error, match=r"a training process died .*run the same command again"):
         select_model(steps, n_primitives=(2,), kernels=("rbf",), max_iterations=2, workers=1)

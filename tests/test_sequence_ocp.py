@@ -15,7 +15,7 @@ from conftest import SMALL, SMALL_LENGTH
 def test_a_chained_walk_is_one_consistent_motion_on_its_footsteps(robot, small_dataset):
     motions, attrs = read_motions(small_dataset)
     specs = sequence_specs([SMALL_LENGTH] * 3)  # start, cyclic, stop: left, right, left swing
-    walk = solve_sequence(robot, specs, motions, attrs["settings"])
+    walk = solve_sequence(robot, specs, motions, settings=attrs["settings"])
     assert [s.name for s in walk.steps] == [s.name for s in specs]
     assert np.all(np.diff(walk.t) >= 0) and len(walk.step_starts) == 3
     report = check_motion(robot, walk, SMALL.friction)
@@ -48,10 +48,10 @@ def test_a_missing_transition_is_solved_for_the_robot_given_not_one_rebuilt_by_n
     motions.pop(spec.name)
     used = []
 
-    def solve_transition(robot_used, settings, right, cyclic_from, cyclic_to):
+    def solve_transition(robot_used, settings, right, *, cyclic_from, cyclic_to):
         used.append(robot_used)
         return dataclasses.replace(cyclic_from, steps=[right]), []
 
     monkeypatch.setattr(chained_steps, "solve_transition", solve_transition)
-    motion = chained_steps.solve_step_motion(robot, spec, motions, attrs["settings"])
+    motion = chained_steps.solve_step_motion(robot, spec, motions, settings=attrs["settings"])
     assert used == [robot] and motion.steps == [spec] and motions[spec.name] is motion

@@ -32,10 +32,10 @@ def test_gains_are_set_per_group_on_a_copy(robot, sim):
 
 def test_commands_reach_the_servos_after_the_latency_with_the_encoder_noise():
     channel = CommandChannel(ServoSettings(latency_s=0.003), timestep=0.001, n=2)
-    received = [channel(np.full(2, float(k)))[0] for k in range(6)]
+    received = [channel.received(np.full(2, float(k)))[0] for k in range(6)]
     assert received == [0.0, 0.0, 0.0, 0.0, 1.0, 2.0]  # 3 control steps late, the first command held before
     noisy = CommandChannel(ServoSettings(encoder_noise_rad=0.002, seed=4), timestep=0.001, n=30)
-    offsets = np.array([noisy(np.zeros(30)) for _ in range(200)])
+    offsets = np.array([noisy.received(np.zeros(30)) for _ in range(200)])
     assert np.std(offsets) == pytest.approx(0.002, rel=0.05) and abs(offsets.mean()) < 2e-4
 
 

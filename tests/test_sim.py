@@ -8,11 +8,10 @@ import pytest
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.gait import foot_separation
 from cocomopl.kinematics import double_support_posture
-from cocomopl.motion import Motion
 from cocomopl.motion_file import read_motion, write_motions
 from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model, mjcf
-from cocomopl.sim.rollout import _placed_on_floor, simulate
-from cocomopl.sim.stabilizer import TILT_DEAD_BAND, Stabilizer, StabilizerGains, _leg_maps
+from cocomopl.sim.rollout import placed_on_floor, simulate
+from cocomopl.sim.stabilizer import TILT_DEAD_BAND, Stabilizer, StabilizerGains, leg_maps
 
 from conftest import synthetic
 
@@ -70,21 +69,9 @@ def test_state_conversions_round_trip(robot, sim):
     assert np.allclose(sim.v(sim.qpos(q), sim.qvel(q, v)), v)
 
 
-def _standing(robot, seconds: float) -> Motion:
-    y = foot_separation(robot)
-    q = double_support_posture(robot, (0.0, y / 2), (0.0, -y / 2))
-    n = 2
-    return Motion(
-        t=np.array([0.0, seconds]), q=np.stack([q] * n), v=np.zeros((n, robot.model.nv)), tau=np.zeros((n, robot.nu)),
-        wrenches=np.zeros((n, 2, 6)), contact=np.ones((n, 2), bool), zmp=np.zeros((n, 3)), phases=[("ds", 0, 1)],
-        impacts=np.zeros(0, int), steps=[], step_starts=np.zeros(0, int), joint_names=list(robot.joint_names),
-        robot=robot.name, meta={"producer": "test"},
-    )
-
-
 @pytest.mark.parametrize("stabilizer", [True, False])
-def test_standing_robot_carries_its_weight_on_its_soles(robot, sim, stabilizer):
-    rollout = simulate(sim, _standing(robot, 0.5), stabilizer=stabilizer)
+def test_standing_robot_carries_its_weight_on_its_soles(robot, sim, standing, stabilizer):
+    rollout = simulate(sim, standing(0.5), stabilizer=stabilizer)
     assert not rollout.fell
     weight = robot.mass * 9.81
     total = rollout.measured.wrenches[..., 2].sum(axis=1)
@@ -114,7 +101,7 @@ def test_an_oc_step_walks_and_its_measurement_round_trips(robot, sim, tmp_path):
 
 def test_sole_lift_offsets_raise_the_sole_vertically_and_keep_it_flat(robot):
     q = double_support_posture(robot, (0.0, foot_separation(robot)), (0.0, 0.0))  # knees bent
-    lifts = _leg_maps(robot, q[None])[0][0]
+    lifts = leg_maps(robot, q[None])[0][0]
     for j, side in enumerate(("left", "right")):
         offsets = lifts[j]
         assert set(np.flatnonzero(offsets)) <= set(robot.leg_chain(side))  # only its own leg moves
@@ -132,7 +119,7 @@ def test_ankle_moment_torques_do_the_work_of_the_ground_moment(robot):
     # τ = -J_legᵀ m: turning the leg joints by δq turns the sole by J_leg δq, and the joint
     # torques then do work τ·δq = -m·δθ, as a ground moment m resisting the turn would
     q = double_support_posture(robot, (0.0, foot_separation(robot)), (0.0, 0.0))
-    moments = _leg_maps(robot, q[None])[1][0]
+    moments = leg_maps(robot, q[None])[1][0]
     rng = np.random.default_rng(2)
     for j, side in enumerate(("left", "right")):
         dq = np.zeros(robot.nu)
@@ -146,11 +133,11 @@ def test_ankle_moment_torques_do_the_work_of_the_ground_moment(robot):
         assert (moments[j] @ m) @ dq == pytest.approx(-m @ turn[:2], rel=1e-3)
 
 
-def test_a_tilted_stance_sole_is_taken_up_by_its_ankle_and_let_go_when_unloaded(robot, sim):
+def test_a_tilted_stance_sole_is_taken_up_by_its_ankle_and_let_go_when_unloaded(robot, sim, standing):
     """The ground turns the right sole 3.4 degrees from the plan: in single support on it, once
     it carries load, the ankle offsets turn the planned sole onto the measured one but for the
     dead band, the leg above the ankle held; unloaded, or in double support, they let go."""
-    reference = _standing(robot, 1.0)
+    reference = standing(1.0)
     reference.contact[:, 0] = False  # standing on the right sole
     roles = robot.leg_roles()["right"]
     q = reference.q[0].copy()
@@ -182,13 +169,13 @@ def test_a_tilted_stance_sole_is_taken_up_by_its_ankle_and_let_go_when_unloaded(
     load[:, 2] = 0.0
     assert np.abs(settled(control)).max() < 1e-3 * np.linalg.norm([0.05, 0.03])
     load[:, 2] = 400.0
-    assert np.allclose(settled(Stabilizer(ground, _standing(robot, 1.0))), 0.0)  # double support
+    assert np.allclose(settled(Stabilizer(ground, standing(1.0))), 0.0)  # double support
 
 
 def _push_excursion(robot, sim, reference, dcm_gain: float, push_n: float, ankle_damping: float) -> float:
     """Largest forward CoM excursion (m) of a robot standing on ``reference`` pushed at the pelvis."""
     data = mujoco.MjData(sim.mj)
-    _placed_on_floor(sim, data, reference.q[0])
+    placed_on_floor(sim, data, reference.q[0])
     control = Stabilizer(sim, reference, StabilizerGains(ankle_damping=ankle_damping, dcm_gain=dcm_gain))
     start, excursion = data.subtree_com[0, 0], 0.0
     for i in range(1000):  # 1 s, pushed from 0.1 s to 0.2 s
@@ -199,21 +186,20 @@ def _push_excursion(robot, sim, reference, dcm_gain: float, push_n: float, ankle
     return excursion
 
 
-def test_dcm_feedback_resists_a_push(robot, sim):
+def test_dcm_feedback_resists_a_push(robot, sim, standing):
     """The DCM feedback acts through the ankle damping control, as fast as its D lets it: at
     the default D (3000 N m s/rad, for soft landings) it hardly moves the ankles within this
-    1 s test (README, "Stabilizer"), so the mechanism is tested at D = 300."""
-    reference = _standing(robot, 1.0)
+    1 s test (docs/method.md, "Stabilizer"), so the mechanism is tested at D = 300."""
+    reference = standing(1.0)
     reference.wrenches[:, :, 2] = robot.mass * 9.81 / 2  # the DCM feedback works through the soles' loads
     without = _push_excursion(robot, sim, reference, 0.0, 150.0, ankle_damping=300.0)
     with_feedback = _push_excursion(robot, sim, reference, 2.0, 150.0, ankle_damping=300.0)
-    assert 0.005 < without  # the push moves the robot
+    assert without > 0.005  # the push moves the robot
     assert with_feedback < 0.85 * without
 
 
 def test_reference_filter_keeps_the_gait_and_removes_the_knot_rate(robot):
-    from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, _reference_joints
-
+    from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, Reference
 
     # 25 ms knots of a 1 Hz swing with a 40 Hz zigzag on top, standing still at both ends
     t = np.arange(0.0, 4.0 + 1e-9, 0.025)
@@ -224,7 +210,7 @@ def test_reference_filter_keeps_the_gait_and_removes_the_knot_rate(robot):
     q[:, 7] += slow + zigzag
     motion = synthetic(robot, t, q=q)
     dt = 0.001
-    plain, filtered = _reference_joints(motion, dt, None), _reference_joints(motion, dt, REFERENCE_CUTOFF_HZ)
+    plain, filtered = Reference(motion, dt, None).at, Reference(motion, dt, REFERENCE_CUTOFF_HZ).at
     grid = np.arange(0.0, 4.0, dt)
     a, b = (np.array([f(x)[0] for x in grid]) - robot.q_ref[7] for f in (plain, filtered))
     np.testing.assert_allclose(a[::25], (slow + zigzag)[:-1], atol=1e-12)  # unfiltered: the knots
@@ -279,7 +265,7 @@ def _other_model_file(robot, path, drop_actuators: bool = False):
     return path
 
 
-def test_a_model_file_made_elsewhere_is_matched_by_joint_name_and_walked(robot, tmp_path):
+def test_a_model_file_made_elsewhere_is_matched_by_joint_name_and_walked(robot, standing, tmp_path):
     sim = load_sim_model(robot, _other_model_file(robot, tmp_path / "other.xml"))
     assert [sim.mj.actuator(int(a)).name for a in sim.actuators] == [f"servo_{n}" for n in robot.joint_names]
     assert [sim.mj.joint(int(np.flatnonzero(sim.mj.jnt_qposadr == i)[0])).name for i in sim.qpos_index] == robot.joint_names
@@ -294,8 +280,8 @@ def test_a_model_file_made_elsewhere_is_matched_by_joint_name_and_walked(robot, 
     assert not rollout.fell
     weight = 1.04 * robot.mass * 9.81
     assert np.abs(rollout.measured.wrenches[-20:, :, 2].sum(axis=1) / weight - 1).max() < 0.03  # stands on the added soles
-    stiff = simulate(sim, _standing(robot, 0.3), stabilizer=False).measured  # the file's servos, in the robot's order
-    sag = np.abs(stiff.q[-1, 7:] - _standing(robot, 0.3).q[0, 7:])
+    stiff = simulate(sim, standing(0.3), stabilizer=False).measured  # the file's servos, in the robot's order
+    sag = np.abs(stiff.q[-1, 7:] - standing(0.3).q[0, 7:])
     knee = robot.joint_names.index("leg_left_4_joint")
     assert sag[knee] == pytest.approx(np.abs(stiff.tau[-1, knee]) / (0.8 * robot.tau_max[knee] / 0.03), rel=0.3, abs=2e-4)
 
@@ -330,7 +316,7 @@ def test_the_projects_own_model_read_as_a_model_file_walks_exactly_as_built(robo
     assert np.allclose(read.q, built.q, atol=1e-9) and np.allclose(read.wrenches, built.wrenches, atol=1e-6)
 
 
-def test_sim_settings_reach_the_rollout(robot, tmp_path):
+def test_sim_settings_reach_the_rollout(robot, standing, tmp_path):
     from cocomopl.pipeline import SimSettings, rollout_of
     from cocomopl.sim.servos import ServoSettings
 
@@ -338,7 +324,7 @@ def test_sim_settings_reach_the_rollout(robot, tmp_path):
     path.write_text(mjcf(robot, visuals=False))
     settings = SimSettings(stabilizer=False, contact_time_constant=0.02, reference_cutoff_hz=0.0, feedforward=True,
                            sim_model=path, servos=ServoSettings(latency_s=0.002))
-    meta = rollout_of(robot, _standing(robot, 0.2), settings).measured.meta
+    meta = rollout_of(robot, standing(0.2), settings).measured.meta
     assert meta["stabilizer"] is False and meta["stabilizer_gains"] is None
     assert meta["contact_time_constant_s"] == pytest.approx(0.02)
     assert meta["reference_cutoff_hz"] == 0.0

@@ -60,11 +60,12 @@ def test_walk_outputs_carry_their_provenance(walk_report):
 
 def test_the_bundled_walk_is_not_flagged_and_a_tight_threshold_flags_it(monkeypatch):
     from cocomopl import pipeline
+    from cocomopl.requests import StraightSteps, WalkRequest
 
-    walk = pipeline.generate_walk([0.25, 0.25])
+    walk = pipeline.generate_walk(WalkRequest(StraightSteps([0.25, 0.25])))
     assert walk.motion.meta["plan_zmp_error_m"] < pipeline.FILTER_WARNING_M and walk.warnings == []
     monkeypatch.setattr(pipeline, "FILTER_WARNING_M", 0.0)  # every real walk leaves some error
-    assert any("dynamics filter" in w for w in pipeline.generate_walk([0.25, 0.25]).warnings)
+    assert any("dynamics filter" in w for w in pipeline.generate_walk(WalkRequest(StraightSteps([0.25, 0.25]))).warnings)
 
 
 def test_simulate_a_motion_file_replacing_an_earlier_result(tmp_path):

@@ -69,7 +69,7 @@ def planned_figures(robot: Robot, plan: Motion) -> dict:
 
 
 def window_figures(robot: Robot, planned: dict[str, Motion], simulated: dict[str, Motion],
-                   window: tuple[float, float]) -> dict[str, dict]:
+                   *, window: tuple[float, float]) -> dict[str, dict]:
     """Per walk, :func:`~cocomopl.analysis.metrics.summary` of its simulated motion against its
     plan and :func:`~cocomopl.analysis.metrics.posture_statistics`, both over ``window`` (s,
     on the plans' clock, which the simulated motions share), with the plan's own figures

@@ -89,7 +89,8 @@ def check_motion(robot: Robot, motion: Motion, friction: float) -> dict:
     intervals, margins = zmp_margins(robot, motion)
     a = finite_difference_accelerations(motion.t, motion.v)
     residual = inverse_dynamics_residual(
-        robot, motion.q[intervals], motion.v[intervals], a[intervals], motion.tau[intervals], motion.wrenches[intervals]
+        robot, motion.q[intervals], motion.v[intervals], a=a[intervals], tau=motion.tau[intervals],
+        wrenches=motion.wrenches[intervals]
     )
     soles = sole_placements(robot, motion.q)
     forces = motion.wrenches[intervals][..., :3]

@@ -280,7 +280,7 @@ def posture_statistics(robot: Robot, motion: Motion) -> dict:
     }
 
 
-def fell(robot: Robot, motion: Motion, height_ratio: float = FALL_HEIGHT_RATIO, tilt: float = FALL_TILT) -> bool:
+def fell(robot: Robot, motion: Motion, *, height_ratio: float = FALL_HEIGHT_RATIO, tilt: float = FALL_TILT) -> bool:
     """Whether the robot fell: the simulator said so (``meta["fell"]``), or at some sample
     the pelvis is below ``height_ratio`` times its first height, or its z axis is tilted
     from the vertical by more than ``tilt`` rad."""

@@ -100,7 +100,7 @@ def viewer_data(robot: Robot, motion: Motion, fps: float = FPS) -> dict:
     return {"fps": fps, "t": np.round(times - t[0], 6).tolist(), "segments": segments, "sides": sides, **frames}
 
 
-def write_html_viewer(robot: Robot, motion: Motion, path: Path, title: str | None = None, fps: float = FPS) -> Path:
+def write_html_viewer(robot: Robot, motion: Motion, path: Path, *, title: str | None = None, fps: float = FPS) -> Path:
     """Write the interactive 3-D page of ``motion`` to ``path`` (atomically) and return it.
 
     Drag to orbit, wheel to zoom, space or the button to play and pause, the slider to

@@ -90,8 +90,8 @@ class KajitaSettings:
     second_stage: bool = True
 
 
-# The single-stage baseline of earlier releases: a fixed 4 cm crouch, the raw reference, no
-# multibody correction.  Kept to compare with; docs/results.md has both.
+# The single-stage baseline (`reproduce --kajita legacy`): a fixed 4 cm crouch, the raw
+# reference, no multibody correction, to compare with (docs/results.md#the-papers-experiment).
 LEGACY = KajitaSettings(pelvis_drop=0.04, zmp_smoothing=0.0, second_stage=False)
 VARIANTS = {"two-stage": KajitaSettings(), "legacy": LEGACY}
 
@@ -123,6 +123,7 @@ class SupportPhase:
 
 def default_durations(
     specs: list[StepSpec],
+    *,
     double_support: float = 0.15,
     single_support: float = 0.8,
     start_double_support: float = 0.4,
@@ -169,10 +170,12 @@ def support_phases(
             )
         for p, ((kind, swing), duration) in enumerate(zip(plan, times)):
             start, end = (
-                np.array([ground_position(feet, plan, side, i) for side in SIDES])
+                np.array([ground_position(feet, plan, side, phase=i) for side in SIDES])
                 for i in (p, p + 1)
             )
-            start_yaw, end_yaw = (np.array([ground_yaw(feet, plan, side, i) for side in SIDES]) for i in (p, p + 1))
+            start_yaw, end_yaw = (
+                np.array([ground_yaw(feet, plan, side, phase=i) for side in SIDES]) for i in (p, p + 1)
+            )
             out.append(SupportPhase(kind, float(duration), start, end, swing, k, start_yaw, end_yaw))
     return out
 
@@ -187,6 +190,7 @@ def zmp_reference(
     robot: Robot,
     phases: list[SupportPhase],
     t: np.ndarray,
+    *,
     hold: float = 0.0,
     settle: float = 0.0,
 ) -> np.ndarray:
@@ -240,7 +244,7 @@ def minimum_jerk(s: float) -> float:
 
 
 def swing_position(
-    start: np.ndarray, end: np.ndarray, s: float, height: float
+    start: np.ndarray, end: np.ndarray, s: float, *, height: float
 ) -> np.ndarray:
     """Swing sole position at phase ``s`` in [0, 1]: minimum-jerk horizontally, a bell vertically.
 
@@ -299,7 +303,7 @@ def _sole_targets(
         if phase.swing is not None:
             j = SIDES.index(phase.swing)
             s = np.clip((time - edges[p]) / phase.duration, 0.0, 1.0)
-            out[k, j] = swing_position(phase.start[j], phase.end[j], s, height)
+            out[k, j] = swing_position(phase.start[j], phase.end[j], s, height=height)
             yaws[k, j] += minimum_jerk(s) * (phase.end_yaw[j] - phase.start_yaw[j])
     return Soles(out, yaws)
 
@@ -320,13 +324,14 @@ def _preview_com(
     controller = PreviewController(
         settings.control_dt,
         com_height,
-        settings.preview_time,
-        settings.weight_error,
-        settings.weight_input,
+        preview_time=settings.preview_time,
+        weight_error=settings.weight_error,
+        weight_input=settings.weight_input,
     )
     grid = np.arange(0.0, t[-1] + 1.5 * settings.control_dt, settings.control_dt)
     reference = smoothed(
-        zmp_reference(robot, phases, grid, settings.prelude, settle), settings.control_dt, settings.zmp_smoothing
+        zmp_reference(robot, phases, grid, hold=settings.prelude, settle=settle), settings.control_dt,
+        settings.zmp_smoothing
     )
     com, com_vel, _, _ = controller.track(reference)
     at_t = np.stack([np.interp(t, grid, reference[:, i]) for i in range(2)], axis=1)
@@ -379,9 +384,9 @@ def _whole_body(
         heading = mean_yaw(soles.yaws[k, 0], soles.yaws[k, 1])
         q[3:7] = pin.Quaternion(flat_placement(0.0, 0.0, heading).rotation @ upright).coeffs()
         for _ in range(iterations):
-            q = place_legs(robot, q, targets, legs)
+            q = place_legs(robot, q, targets, legs=legs)
             q[:2] += com[k] - pin.centerOfMass(model, data, q)[:2]
-        out[k] = q = place_legs(robot, q, targets, legs)
+        out[k] = q = place_legs(robot, q, targets, legs=legs)
     return out
 
 
@@ -432,6 +437,7 @@ def highest_pelvis_drop(
     robot: Robot,
     phases: list[SupportPhase],
     t: np.ndarray,
+    *,
     soles: Soles,
     settings: KajitaSettings,
     settle: float,
@@ -466,6 +472,7 @@ def kajita_motion(
     robot: Robot,
     phases: list[SupportPhase],
     specs: list[StepSpec],
+    *,
     dt: float = 0.005,
     settings: KajitaSettings = KajitaSettings(),
 ) -> Motion:
@@ -496,12 +503,13 @@ def kajita_motion(
     impacts = np.flatnonzero(np.diff(t) == 0)
     drop, stage = settings.pelvis_drop, None
     if drop is None:
-        drop, stage = highest_pelvis_drop(robot, phases, t, soles, settings, settle)
+        drop, stage = highest_pelvis_drop(robot, phases, t, soles=soles, settings=settings, settle=settle)
     q, zmp_ref, com_height = stage or _first_stage(robot, phases, t, soles, drop, settings, settle)
     zmp_ref = np.column_stack([zmp_ref, np.zeros(len(t))])
-    first_error = rms_zmp_error(multibody_zmp(robot, t, q, contact, impacts), zmp_ref, impacts)
+    first_error = rms_zmp_error(multibody_zmp(robot, t, q, contact=contact, impacts=impacts), zmp_ref, impacts)
     if settings.second_stage:
-        q, _, _ = dynamics_filter(robot, t, q, contact, impacts, _ground(soles, contact), zmp_ref)
+        q, _, _ = dynamics_filter(robot, t, q, contact=contact, impacts=impacts, ground=_ground(soles, contact),
+                                  zmp_ref=zmp_ref)
     why = _out_of_reach(robot, t, q, soles.positions)
     if why is not None:
         remedy = "shorten the steps" if settings.pelvis_drop is None else "lower it (KajitaSettings.pelvis_drop) or shorten the steps"
@@ -510,7 +518,8 @@ def kajita_motion(
     step_of = np.array([phases[p].step for p in index])
     starts = [np.flatnonzero(step_of == k)[0] for k in range(len(specs))]
     # the clock starts when the walking does: the standing prelude runs at negative times
-    motion = kinematic_motion(robot, t - settings.prelude, q, contact, impacts, _phase_ranges(phases, index), specs, starts,
+    motion = kinematic_motion(robot, t - settings.prelude, q, contact=contact, impacts=impacts,
+                              phases=_phase_ranges(phases, index), steps=specs, step_starts=starts,
                               meta={})
     motion.meta = {
         "producer": "kajita",
@@ -532,6 +541,7 @@ def kajita_motion(
 def kajita_walk(
     robot: Robot,
     specs: list[StepSpec],
+    *,
     durations: list[np.ndarray] | None = None,
     dt: float = 0.005,
     settings: KajitaSettings = KajitaSettings(),
@@ -553,5 +563,5 @@ def kajita_walk(
     if len(durations) != len(specs):
         raise Error(f"{len(specs)} steps but {len(durations)} lists of phase durations")
     return kajita_motion(
-        robot, support_phases(robot, specs, durations), specs, dt, settings
+        robot, support_phases(robot, specs, durations), specs, dt=dt, settings=settings
     )

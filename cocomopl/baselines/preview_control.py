@@ -39,6 +39,7 @@ class PreviewController:
         self,
         dt: float,
         com_height: float,
+        *,
         preview_time: float = 1.6,
         weight_error: float = 1.0,
         weight_input: float = 1e-6,

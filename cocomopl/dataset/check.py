@@ -28,9 +28,12 @@ def non_finite_values(motion: Motion, signals: np.ndarray | None = None) -> int:
     return int(sum(np.count_nonzero(~np.isfinite(a)) for a in arrays))
 
 
-def check_dataset(robot: Robot, motions: dict[str, Motion], friction: float, dt: float,
+def check_dataset(robot: Robot, motions: dict[str, Motion], friction: float, *, dt: float,
                   signals: dict[str, np.ndarray] | None = None) -> dict:
     """Check every motion and every step-to-step junction; ``ok`` if all pass.
+
+    The junctions are every ordered pair of motions of which the second may follow the
+    first, a dataset's mirror images included (the count in ``junctions``).
 
     ``friction`` and ``dt`` are those the motions were made with (see :func:`tolerances`);
     ``signals`` the training signals of a dataset's motions, by name.  A motion holding a

@@ -18,6 +18,7 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -61,7 +62,7 @@ class JobResult:
 
 
 def length_job(
-    robot_name: str, settings: dict, length: float | tuple, kinds: list[str], cyclic: Motion | None = None,
+    robot_name: str, settings: dict, length: float | tuple, *, kinds: list[str], cyclic: Motion | None = None,
     neighbour_walk: np.ndarray | None = None, walk_guess: np.ndarray | None = None,
     walk_controls: list[np.ndarray] | None = None,
 ) -> JobResult:
@@ -76,8 +77,8 @@ def length_job(
     if cyclic is not None:  # resumed: the solved cyclic step fixes S(L) and the timing
         start_state = np.concatenate([cyclic.q[0], cyclic.v[0]])
         opts = replace(opts, **phase_durations(cyclic))
-    solutions, info = solve_length(robot, length, opts, tuple(kinds), start_state, walk_guess, walk_controls,
-                                   neighbour_walk)
+    solutions, info = solve_length(robot, length, opts, kinds=tuple(kinds), cyclic_start=start_state,
+                                   walk_guess=walk_guess, walk_controls=walk_controls, neighbour_walk=neighbour_walk)
     result = JobResult(walk=info.get("walk"))
     for kind, solution in solutions.items():
         spec = length_steps(length)[kind]
@@ -91,11 +92,12 @@ def length_job(
 
 
 def transition_job(
-    robot_source: str, settings: dict, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion
+    robot_source: str, settings: dict, spec: StepSpec, *, cyclic_from: Motion, cyclic_to: Motion
 ) -> JobResult:
     """A transition step (runs in a worker: plain data in and out); see
     :func:`~cocomopl.ocp.solve.solve_transition`."""
-    motion, attempts = solve_transition(Robot(robot_source), OCPSettings.from_saved(settings), spec, cyclic_from, cyclic_to)
+    motion, attempts = solve_transition(Robot(robot_source), OCPSettings.from_saved(settings), spec,
+                                        cyclic_from=cyclic_from, cyclic_to=cyclic_to)
     if motion is None:
         return JobResult(failed={spec.name: attempts})
     return JobResult(motions={spec: motion})
@@ -154,7 +156,7 @@ def _part_path(parts: Path, spec: StepSpec) -> Path:
     return parts / f"{spec.name}.h5"
 
 
-def write_part(parts: Path, spec: StepSpec, motion: Motion, attrs: dict) -> None:
+def write_part(parts: Path, spec: StepSpec, motion: Motion, *, attrs: dict) -> None:
     """Save the solved step ``spec`` in the folder ``parts``, with :func:`part_attrs`."""
     write_motions(_part_path(parts, spec), {spec.name: motion}, attrs)
 
@@ -241,53 +243,63 @@ def _working_folder(parts: Path, output: Path):
         raise
 
 
-class Executor:
-    """Local process pool or Dask client behind one submit/as_completed interface."""
+def _dask_client(scheduler: str):
+    """A Dask client of the cluster at ``scheduler``; :class:`Error` in one line if the
+    [cluster] extra is missing or the scheduler does not answer within :data:`SCHEDULER_TIMEOUT_S`."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise Error(
+            "--scheduler needs the [cluster] extra: pip install 'cocomopl[cluster]' "
+            "(or pip install -e '.[cluster]')"
+        ) from None
+    try:
+        return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise Error(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
 
-    def __init__(self, workers: int, scheduler: str | None):
-        self.scheduler = scheduler
-        if scheduler:
-            try:
-                from dask.distributed import Client
-            except ImportError:
-                raise Error(
-                    "--scheduler needs the [cluster] extra: pip install 'cocomopl[cluster]' "
-                    "(or pip install -e '.[cluster]')"
-                ) from None
-            try:
-                self.client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise Error(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
-        else:
-            # spawned, not forked: a fork of a process that runs JAX or Dask threads can deadlock
-            self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
-    def submit(self, fn, *args):
-        if self.scheduler:
-            return self.client.submit(fn, *args, pure=False)
-        return self.pool.submit(fn, *args)
+@contextlib.contextmanager
+def job_executor(workers: int, scheduler: str | None) -> Iterator[cf.Executor]:
+    """Yield the :class:`concurrent.futures.Executor` the OCP jobs run on: ``workers`` local
+    processes, or the Dask cluster at ``scheduler`` (its client's executor,
+    ``Client.get_executor``).  The jobs still waiting when the block ends are cancelled.
 
-    def as_completed(self, futures):
-        if self.scheduler:
-            from dask.distributed import as_completed
-
-            return as_completed(futures)
-        return cf.as_completed(futures)
-
-    @staticmethod
-    def result(future):
-        """The job's result; a local worker that died is an :class:`Error`, not a traceback."""
+    Raises
+    ------
+    Error
+        If ``scheduler`` is given and cannot be used (see :func:`_dask_client`).
+    """
+    if scheduler:
+        client = _dask_client(scheduler)
         try:
-            return future.result()
-        except BrokenProcessPool:
-            raise Error("a solver process died (a crash in compiled code, or out of memory); the OCPs solved "
-                        "so far are kept: run the same command again to resume") from None
+            yield client.get_executor(pure=False)  # not pure: a job run twice is solved twice
+        finally:
+            client.close()
+        return
+    # spawned, not forked: a fork of a process that runs JAX or Dask threads can deadlock
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        yield pool
+    finally:
+        pool.shutdown(cancel_futures=True)
 
-    def close(self):
-        if self.scheduler:
-            self.client.close()
-        else:
-            self.pool.shutdown(cancel_futures=True)
+
+def _worker_deaths() -> tuple[type[BaseException], ...]:
+    """What a job's future raises when its worker process died: the local pool's exception,
+    and Dask's if Dask is in use (it is imported only for ``--scheduler``)."""
+    distributed = sys.modules.get("distributed")
+    return (BrokenProcessPool,) if distributed is None else (BrokenProcessPool, distributed.KilledWorker)
+
+
+def job_result(future: cf.Future) -> JobResult:
+    """The result of a job submitted to a :func:`job_executor`; a worker that died is an
+    :class:`Error`, not a traceback."""
+    try:
+        return future.result()
+    except _worker_deaths():
+        raise Error("a solver process died (a crash in compiled code, or out of memory); the OCPs solved "
+                    "so far are kept: run the same command again to resume") from None
 
 
 def check_stances(robot: Robot, lengths: tuple, settings: OCPSettings) -> None:
@@ -299,9 +311,9 @@ def check_stances(robot: Robot, lengths: tuple, settings: OCPSettings) -> None:
     separation = foot_separation(robot)
     for footstep in footsteps:
         if not footstep.straight:
-            check_footstep(robot, "left", *footstep)
+            check_footstep(robot, "left", footstep)
         # as the gait state S of the footstep stands
-        left = footstep_origin(np.zeros(3), "right", *footstep, separation)
+        left = footstep_origin(np.zeros(3), "right", footstep, separation=separation)
         double_support_posture(robot, (left[0], left[1]), (0.0, 0.0), yaws=(left[2], 0.0))
     knee_bounds(robot, settings.min_knee_flexion)
 
@@ -310,6 +322,7 @@ def generate(
     output: str | Path,
     lengths: tuple,
     extra_transitions: tuple | None = None,
+    *,
     robot_name: str = DEFAULT_ROBOT,
     settings: OCPSettings | None = None,
     workers: int | None = None,
@@ -349,36 +362,33 @@ def generate(
     parts = output.with_name(output.name + ".parts")
     workers = check_workers(workers or max(1, min(len(lengths), os.cpu_count() or 1)))
     specs = training_specs(lengths, extra_transitions)
-    executor = Executor(workers, scheduler)  # an unreachable cluster is refused before anything is written
-    try:
-        with _working_folder(parts, output):
-            attrs = part_attrs(settings, robot)
-            done = {spec: motion for spec, motion in (known or {}).items() if spec in specs}
-            done.update({spec: motion for spec in specs if spec not in done
-                         and (motion := _finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None})
-            reused = len(done)
-            start = time.perf_counter()
-            where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
-            failed, continuation = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
-                                                  progress, walk_guesses)
-            wall = time.perf_counter() - start
-            if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
-                raise Error(
-                    f"no OCP converged with these settings (dt {settings.dt:g} s, at most {settings.max_iterations} "
-                    f"iterations per attempt; {len(specs)} OCPs); nothing written"
-                )
-            footsteps = [as_footstep(f) for f in lengths]
-            omni = {"footsteps_m_rad": [list(f) for f in footsteps]} if not all(f.straight for f in footsteps) else {}
-            run = {"lengths_m": [f.length for f in footsteps if f.straight], **omni,
-                   "extra_transitions_m": [[as_footstep(a).length, as_footstep(b).length] if omni == {} else
-                                           [list(as_footstep(a)), list(as_footstep(b))] for a, b in extra_transitions],
-                   "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
-                   "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
-                   "continuation": continuation,
-                   "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes", **(record or {})}
-            motions = _write_dataset(output, robot, specs, done, run)
-    finally:
-        executor.close()
+    # an unreachable cluster is refused before anything is written
+    with job_executor(workers, scheduler) as executor, _working_folder(parts, output):
+        attrs = part_attrs(settings, robot)
+        done = {spec: motion for spec, motion in (known or {}).items() if spec in specs}
+        done.update({spec: motion for spec in specs if spec not in done
+                     and (motion := _finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None})
+        reused = len(done)
+        start = time.perf_counter()
+        where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
+        failed, continuation = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
+                                              progress, walk_guesses)
+        wall = time.perf_counter() - start
+        if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
+            raise Error(
+                f"no OCP converged with these settings (dt {settings.dt:g} s, at most {settings.max_iterations} "
+                f"iterations per attempt; {len(specs)} OCPs); nothing written"
+            )
+        footsteps = [as_footstep(f) for f in lengths]
+        omni = {"footsteps_m_rad": [list(f) for f in footsteps]} if not all(f.straight for f in footsteps) else {}
+        run = {"lengths_m": [f.length for f in footsteps if f.straight], **omni,
+               "extra_transitions_m": [[as_footstep(a).length, as_footstep(b).length] if omni == {} else
+                                       [list(as_footstep(a)), list(as_footstep(b))] for a, b in extra_transitions],
+               "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
+               "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
+               "continuation": continuation,
+               "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes", **(record or {})}
+        motions = _write_dataset(output, robot, specs, done, run)
     if not failed:
         shutil.rmtree(parts, ignore_errors=True)
     return {
@@ -393,7 +403,7 @@ def generate(
 
 
 def _solve_missing(
-    executor: Executor,
+    executor: cf.Executor,
     robot_name: str,
     settings: OCPSettings,
     specs: list[StepSpec],
@@ -406,7 +416,7 @@ def _solve_missing(
 ) -> tuple[dict[str, list], dict]:
     """Solve the ``specs`` not in ``done``, adding each converged one to ``done`` and saving
     it at once in ``parts`` (with ``attrs``): the lengths' steps by continuation
-    (:func:`_solve_by_continuation`), then the transitions.  Returns the attempts of those
+    (:func:`solve_by_continuation`), then the transitions.  Returns the attempts of those
     that failed and the continuation's record."""
     from tqdm import tqdm
 
@@ -422,7 +432,7 @@ def _solve_missing(
 
     def collect_one(result: JobResult) -> None:
         for spec, motion in result.motions.items():
-            write_part(parts, spec, motion, attrs)
+            write_part(parts, spec, motion, attrs=attrs)
             done[spec] = motion
             solver = motion.meta["solver"]
             note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
@@ -433,8 +443,8 @@ def _solve_missing(
             bar.update(1)
 
     def collect(futures) -> None:
-        for future in executor.as_completed(list(futures)):
-            collect_one(executor.result(future))
+        for future in cf.as_completed(list(futures)):
+            collect_one(job_result(future))
 
     try:
         # lengths first: every transition starts and ends in a cyclic step's start state
@@ -447,15 +457,17 @@ def _solve_missing(
         if walk_guesses:
             record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses)
         else:
-            record = _solve_by_continuation(executor, robot_name, settings, todo, done, collect_one, note)
+            record = solve_by_continuation(executor, robot_name, settings, todo=todo, done=done, collect=collect_one,
+                                           note=note)
         cyclic = {s.start_footstep: m for s, m in done.items() if s.kind == "cyclic"}
         futures = {}
         for spec in specs:
             if spec.kind != "transition" or spec in done:
                 continue
             if spec.start_footstep in cyclic and spec.end_footstep in cyclic:
-                ends = cyclic[spec.start_footstep], cyclic[spec.end_footstep]
-                futures[executor.submit(transition_job, robot_name, settings.as_dict(), spec, *ends)] = spec
+                future = executor.submit(transition_job, robot_name, settings.as_dict(), spec,
+                                         cyclic_from=cyclic[spec.start_footstep], cyclic_to=cyclic[spec.end_footstep])
+                futures[future] = spec
             else:
                 failed[spec.name] = [{"error": "a cyclic step it joins did not converge"}]
                 bar.update(1)
@@ -468,8 +480,9 @@ def _solve_missing(
 SWEEPS = ("ascending", "descending")
 
 
-def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict,
-                           done: dict[StepSpec, Motion], collect, note=lambda line: None) -> dict:
+def solve_by_continuation(executor: cf.Executor, robot_name: str, settings: OCPSettings, *, todo: dict,
+                          done: dict[StepSpec, Motion], collect: Callable[[JobResult], None],
+                          note: Callable[[str], None] = lambda line: None) -> dict:
     """Solve the missing ``todo[L]`` kinds of each length (or footstep, by its
     :attr:`~cocomopl.motion.Footstep.gait_key`) by continuation, and pass each length's chosen
     result to ``collect``.
@@ -495,16 +508,18 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
         L = chains[sweep][i]
         f = as_footstep(L)
         cyclic = done.get(StepSpec.between("cyclic", f, f))
-        pending[executor.submit(length_job, robot_name, settings.as_dict(), L, todo[L], cyclic, walk)] = (sweep, i)
+        future = executor.submit(length_job, robot_name, settings.as_dict(), L, kinds=todo[L], cyclic=cyclic,
+                                 neighbour_walk=walk)
+        pending[future] = (sweep, i)
 
     for sweep in chains:
         submit(sweep, 0, None)
     record = {}
     while pending:
-        future = next(iter(executor.as_completed(list(pending))))
+        future = next(cf.as_completed(pending))
         sweep, i = pending.pop(future)
         L = chains[sweep][i]
-        results[L][sweep] = executor.result(future)
+        results[L][sweep] = job_result(future)
         note(f"{sweep} sweep: {as_footstep(L).label} solved ({i + 1} of {len(order)})")
         if i + 1 < len(order):
             submit(sweep, i + 1, results[L][sweep].walk)
@@ -514,20 +529,22 @@ def _solve_by_continuation(executor: Executor, robot_name: str, settings: OCPSet
     return record
 
 
-def _solve_from_guesses(executor: Executor, robot_name: str, settings: OCPSettings, todo: dict,
+def _solve_from_guesses(executor: cf.Executor, robot_name: str, settings: OCPSettings, todo: dict,
                         done: dict[StepSpec, Motion], collect, guesses: dict) -> dict:
     """Solve the missing ``todo[L]`` kinds of each length (or footstep's gait key) at once, each
     one's warm-up walk from its own guess ``guesses[L]`` (states, torques; kinematic where there is none)."""
-    futures = [executor.submit(length_job, robot_name, settings.as_dict(), L, kinds,
-                               done.get(StepSpec.between("cyclic", as_footstep(L), as_footstep(L))),
-                               None, *guesses.get(L, (None, None)))
-               for L, kinds in todo.items()]
+    futures = []
+    for L, kinds in todo.items():
+        walk_guess, walk_controls = guesses.get(L, (None, None))
+        futures.append(executor.submit(length_job, robot_name, settings.as_dict(), L, kinds=kinds,
+                                       cyclic=done.get(StepSpec.between("cyclic", as_footstep(L), as_footstep(L))),
+                                       walk_guess=walk_guess, walk_controls=walk_controls))
     collect(futures)
     return {as_footstep(L).label: {"chosen": "model" if L in guesses else "kinematic"} for L in todo}
 
 
 def _choose_branch(by_sweep: dict[str, JobResult]) -> tuple[str, dict]:
-    """The sweep whose result a length keeps (see :func:`_solve_by_continuation`) and the record."""
+    """The sweep whose result a length keeps (see :func:`solve_by_continuation`) and the record."""
     def cost(result: JobResult) -> float:
         return sum(m.meta["solver"]["cost"] for m in result.motions.values())
 
@@ -561,7 +578,7 @@ def _write_dataset(output: Path, robot: Robot, specs: list[StepSpec], done: dict
         "continuity": continuity_report(robot, done),
         "mean_solve_time_s": float(np.mean(solve_times)),
     }
-    write_motions(output, motions, attrs, signals)
+    write_motions(output, motions, attrs, signals=signals)
     return len(motions)
 
 
@@ -578,4 +595,4 @@ def continuity_report(robot: Robot, done: dict[StepSpec, Motion]) -> dict:
     return report
 
 
-__all__ = ["JobResult", "generate", "length_job", "transition_job"]
+__all__ = ["JobResult", "generate", "job_executor", "job_result", "length_job", "solve_by_continuation", "transition_job"]

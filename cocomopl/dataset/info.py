@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cocomopl.errors import Error
+from cocomopl.errors import Error, plural
 from cocomopl.motion import Footstep
 from cocomopl.motion_file import read_motions
 
@@ -53,7 +53,8 @@ def dataset_info(path: str | Path) -> dict:
         "wall_time_s": attrs.get("wall_time_s"),
         "mean_iterations": float(np.mean(iterations)) if solver else None,
         "max_continuity_error": max(continuity.values()) if continuity else None,
-        "junctions": len(continuity),
+        # generation measures the solved steps' junctions only; `dataset check` adds their mirror images
+        "solved_step_junctions": len(continuity),
         "duration_s": {"min": min(durations.values()), "max": max(durations.values())} if durations else None,
         "created": attrs.get("created"),
         "command": attrs.get("command"),
@@ -83,7 +84,8 @@ def format_info(info: dict) -> str:
         ("all converged", info["all_converged"]),
         ("mean solve time (s)", f"{info['mean_solve_time_s']:.2f}" if info["mean_solve_time_s"] else "-"),
         ("wall time (s)", f"{info['wall_time_s']:.1f}" if info["wall_time_s"] else "-"),
-        ("max continuity error", f"{info['max_continuity_error']:.2e} over {info['junctions']} junctions"
+        ("max continuity error", f"{info['max_continuity_error']:.2e} over "
+         f"{plural(info['solved_step_junctions'], 'step junction')} of the solved steps (without mirror images)"
          if info["max_continuity_error"] is not None else "-"),
         ("created", info["created"]),
         ("command", info["command"]),

@@ -59,7 +59,7 @@ def gait_footsteps(robot, grids) -> tuple[tuple[Footstep, ...], tuple[tuple[Foot
         lead, trail = steady_gait(length, width, turn)
         for side, footstep in (("left", lead), ("right", trail)):
             try:
-                check_footstep(robot, side, *footstep)
+                check_footstep(robot, side, footstep)
             except Error as error:
                 raise Error(f"gait ({length * 1000:g} mm, {width * 1000:g} mm, {math.degrees(turn):g} deg): {error}") from None
         footsteps |= {lead, trail}

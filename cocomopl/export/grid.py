@@ -91,7 +91,7 @@ def _hold(t: np.ndarray, grid: np.ndarray, values: np.ndarray) -> np.ndarray:
     return values[np.searchsorted(t, grid + TIME_TOLERANCE, side="right") - 1]
 
 
-def configurations(robot: Robot, waist: np.ndarray, waist_rpy: np.ndarray, joints: np.ndarray) -> np.ndarray:
+def configurations(robot: Robot, waist: np.ndarray, waist_rpy: np.ndarray, *, joints: np.ndarray) -> np.ndarray:
     """Pinocchio configurations (n, nq) of a waist pose and joint angles."""
     quaternions = [pin.Quaternion(pin.rpy.rpyToMatrix(r)).coeffs() for r in waist_rpy]  # (x, y, z, w)
     return np.column_stack([waist, np.array(quaternions).reshape(-1, 4), joints])
@@ -109,7 +109,7 @@ def finite_differences(robot: Robot, q: np.ndarray, dt: float) -> tuple[np.ndarr
     return v, a
 
 
-def joint_torques(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, wrenches: np.ndarray) -> np.ndarray:
+def joint_torques(robot: Robot, q: np.ndarray, v: np.ndarray, *, a: np.ndarray, wrenches: np.ndarray) -> np.ndarray:
     """Joint torques (n, nu) of inverse dynamics, ``M a + h - sum J^T f`` in the joint rows,
     with the contact wrenches (n, 2, 6) at the sole origins, world-aligned."""
     model, data = robot.model, robot.model.createData()
@@ -125,7 +125,8 @@ def joint_torques(robot: Robot, q: np.ndarray, v: np.ndarray, a: np.ndarray, wre
     return out
 
 
-def resample(robot: Robot, motion: Motion, dt: float = CONTROL_DT, cutoff: float = REFERENCE_CUTOFF_HZ) -> GridMotion:
+def resample(robot: Robot, motion: Motion, *, dt: float = CONTROL_DT,
+             cutoff: float = REFERENCE_CUTOFF_HZ) -> GridMotion:
     """``motion`` every ``dt`` seconds from its first to its last knot, for ``robot``."""
     keep = motion.kept_samples()
     t = motion.t[keep]
@@ -135,14 +136,14 @@ def resample(robot: Robot, motion: Motion, dt: float = CONTROL_DT, cutoff: float
     pose = low_passed(_interpolate(t, grid, np.column_stack([q[:, :3], rpy, q[:, 7:]])), dt, cutoff)
     waist, waist_rpy, joints = pose[:, :3], pose[:, 3:6], pose[:, 6:]
     wrenches = _hold(t, grid, motion.wrenches[keep])
-    configuration = configurations(robot, waist, waist_rpy, joints)
+    configuration = configurations(robot, waist, waist_rpy, joints=joints)
     v, a = finite_differences(robot, configuration, dt)
     zmp = _interpolate_segments(motion, grid, motion.zmp)
     return GridMotion(
         t=grid - grid[0],
         joints=joints,
         velocities=v[:, 6:],
-        torques=joint_torques(robot, configuration, v, a, wrenches),
+        torques=joint_torques(robot, configuration, v, a=a, wrenches=wrenches),
         forces=wrenches[:, :, :3],
         moments=wrenches[:, :, 3:],
         contact=_hold(t, grid, motion.contact[keep]).astype(float),

@@ -1,7 +1,9 @@
 """The robot as a MuJoCo MJCF file: the model ``simulate``, ``walk`` and ``reproduce`` build.
 
 The XML is the text :func:`cocomopl.sim.mujoco_model.mjcf` gives the simulator, written as
-is: MuJoCo's own writer (``MjSpec.to_xml``) rounds limits and inertias to 6 digits.
+is (MuJoCo's own writer, ``MjSpec.to_xml``, rounds limits and inertias to 6 digits), with two
+additions for a model used on its own: the base stands on the floor as loaded, and the
+keyframe ``home`` is the reference posture standing on the floor, its servo commands holding it.
 The URDF's STL meshes are copied beside it into ``<name>-meshes/`` (about 5 MB for TALOS)
 and referenced by relative path, so the XML and its folder load anywhere, even without
 example-robot-data installed, and can be moved together.
@@ -84,7 +86,7 @@ def export_mjcf(robot: Robot, path: str | Path, contact_time_constant: float | N
         contact_time_constant = CONTACT_TIME_CONSTANT
     check_contact_time_constant(contact_time_constant)
     writable_folder(path.parent, f"the folder of {path}")
-    text = mjcf(robot, True, contact_time_constant, mesh_folder=meshes.name)
+    text = mjcf(robot, contact_time_constant=contact_time_constant, mesh_folder=meshes.name, home=True)
     with ExitStack() as stack:  # exits in reverse: the meshes are in place before the XML
         xml = stack.enter_context(atomic_path(path))
         copies = stack.enter_context(_atomic_folder(meshes))
@@ -95,7 +97,7 @@ def export_mjcf(robot: Robot, path: str | Path, contact_time_constant: float | N
     return path
 
 
-def export_model(robot_source: str, fmt: str, out: str | Path, contact_time_constant: float | None = None) -> dict:
+def export_model(robot_source: str, fmt: str, out: str | Path, *, contact_time_constant: float | None = None) -> dict:
     """Write a robot model file and summarise it from the file as written.
 
     Parameters

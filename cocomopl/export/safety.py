@@ -70,7 +70,7 @@ def safety_report(robot: Robot, grid: GridMotion) -> dict:
     report = {"samples": len(grid.t), "dt": grid.dt, "finite": non_finite(grid)}
     if report["finite"] or len(grid.t) < 3:
         return report
-    q = configurations(robot, grid.waist, grid.waist_rpy, grid.joints)
+    q = configurations(robot, grid.waist, grid.waist_rpy, joints=grid.joints)
     v, a = finite_differences(robot, q, grid.dt)
     wrenches = np.concatenate([grid.forces, grid.moments], axis=2)
     excess = np.maximum(np.maximum(robot.q_lower - grid.joints, grid.joints - robot.q_upper), 0.0)
@@ -78,7 +78,8 @@ def safety_report(robot: Robot, grid: GridMotion) -> dict:
         "joint_position_excess": _worst_joint(robot, grid, excess),
         "joint_velocity_ratio": _worst_joint(robot, grid, np.abs(v[:, 6:]) / robot.v_max),
         "max_acceleration": _worst_joint(robot, grid, np.abs(a[:, 6:])),
-        "torque_ratio": _worst_joint(robot, grid, np.abs(joint_torques(robot, q, v, a, wrenches)) / robot.tau_max),
+        "torque_ratio": _worst_joint(robot, grid,
+                                     np.abs(joint_torques(robot, q, v, a=a, wrenches=wrenches)) / robot.tau_max),
         "written_torque_ratio": _worst_joint(robot, grid, np.abs(grid.torques) / robot.tau_max),
         "zmp_margin": zmp_margin(robot, grid, q),
         "foot_distance": foot_distance(robot, grid, q),

@@ -55,11 +55,11 @@ def seqplay_texts(grid: GridMotion) -> dict[str, str]:
 def written(robot: Robot, motion: Motion, dt: float = CONTROL_DT) -> GridMotion:
     """The table that is written for ``motion``: resampled, formatted as text and read back,
     so the gate checks the very numbers that go into the files."""
-    grid = resample(robot, motion, dt)
-    return read_csv(csv_text(robot.joint_names, grid), robot.joint_names)
+    grid = resample(robot, motion, dt=dt)
+    return read_csv(csv_text(robot, grid), robot.joint_names)
 
 
-def export_motion(robot: Robot, motion: Motion, fmt: str, prefix: str | Path, dt: float = CONTROL_DT,
+def export_motion(robot: Robot, motion: Motion, fmt: str, *, prefix: str | Path, dt: float = CONTROL_DT,
                   force: bool = False) -> tuple[list[Path], dict]:
     """Write ``motion`` as seqplay files (``PREFIX.pos .zmp .hip .waist``) or ``PREFIX.csv``,
     behind the safety gate (:mod:`cocomopl.export.safety`).
@@ -99,7 +99,7 @@ def export_motion(robot: Robot, motion: Motion, fmt: str, prefix: str | Path, dt
         more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
         hint = "" if report["finite"] else "; --force exports anyway"
         raise Error(f"refused, unsafe for a robot: {reasons[0]}{more}{hint}")
-    texts = seqplay_texts(grid) if fmt == "seqplay" else {".csv": csv_text(robot.joint_names, grid)}
+    texts = seqplay_texts(grid) if fmt == "seqplay" else {".csv": csv_text(robot, grid)}
     paths = [prefix.with_name(prefix.name + suffix) for suffix in texts]
     with ExitStack() as stack:
         for path, text in zip(paths, texts.values()):

@@ -22,7 +22,7 @@ INF = 1e9  # crocoddyl barriers take finite bounds
 
 
 def contact_6d(
-    robot: Robot, state: crocoddyl.StateMultibody, side: str, placement: pin.SE3, nu: int, dt: float
+    robot: Robot, state: crocoddyl.StateMultibody, side: str, *, placement: pin.SE3, nu: int, dt: float
 ) -> crocoddyl.ContactModel6D:
     """A flat, rigid sole contact at ``placement``.
 
@@ -42,7 +42,7 @@ def torque_cost(state, nu: int) -> crocoddyl.CostModelResidual:
     return crocoddyl.CostModelResidual(state, crocoddyl.ResidualModelControl(state, nu))
 
 
-def posture_cost(robot: Robot, state, nu: int, x_ref: np.ndarray, settings: OCPSettings):
+def posture_cost(robot: Robot, state, nu: int, *, x_ref: np.ndarray, settings: OCPSettings):
     """Weak pull towards a reference state; resolves null-space drift (a small J_pen term)."""
     joints = np.full(robot.nu, settings.w_posture)
     joints[robot.upper_body_joint_indices()] = settings.w_upper_posture
@@ -58,7 +58,7 @@ def posture_cost(robot: Robot, state, nu: int, x_ref: np.ndarray, settings: OCPS
     return crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(weights**2), residual)
 
 
-def wrench_cone_cost(robot: Robot, state, side: str, nu: int, settings: OCPSettings):
+def wrench_cone_cost(robot: Robot, state, side: str, *, nu: int, settings: OCPSettings):
     """Friction cone, unilateral normal force and ZMP/CoP inside the sole with a margin."""
     sole = robot.sole
     half_length = min(sole.front, sole.back) - settings.zmp_margin
@@ -69,7 +69,7 @@ def wrench_cone_cost(robot: Robot, state, side: str, nu: int, settings: OCPSetti
     return crocoddyl.CostModelResidual(state, activation, residual)
 
 
-def load_transfer_cost(robot: Robot, state, side: str, force: float, nu: int) -> crocoddyl.CostModelResidual:
+def load_transfer_cost(robot: Robot, state, side: str, *, force: float, nu: int) -> crocoddyl.CostModelResidual:
     """Pull on the vertical force of ``side``'s sole towards ``force`` (N)."""
     residual = crocoddyl.ResidualModelContactForce(
         state, robot.foot_frames[side], pin.Force(np.array([0.0, 0.0, force, 0.0, 0.0, 0.0])), 6, nu, True
@@ -93,7 +93,7 @@ def knee_bounds(robot: Robot, min_flexion: float) -> tuple[np.ndarray, np.ndarra
     return lower, upper
 
 
-def joint_limit_cost(robot: Robot, state, nu: int, settings: OCPSettings):
+def joint_limit_cost(robot: Robot, state, nu: int, *, settings: OCPSettings):
     """Joint position and velocity limits from the URDF, as a barrier on the state.
 
     A penalty barrier tolerates small violations, so it starts inside the limits by a
@@ -110,7 +110,7 @@ def joint_limit_cost(robot: Robot, state, nu: int, settings: OCPSettings):
     return crocoddyl.CostModelResidual(state, activation, residual)
 
 
-def swing_clearance_cost(robot: Robot, state, swing: str, nu: int, min_height: float, min_lateral: float | None,
+def swing_clearance_cost(robot: Robot, state, swing: str, *, nu: int, min_height: float, min_lateral: float | None,
                          stance_y: float):
     """Swing sole above ``min_height`` and, unless ``min_lateral`` is None, at least
     ``min_lateral`` beside the stance sole at ``stance_y`` (m): its lane."""
@@ -193,7 +193,7 @@ class SoleGapResidual(crocoddyl.ResidualModelAbstract):
     turn on the ground is left out (a 2 % error at 0.1 rad of random joint noise).
     """
 
-    def __init__(self, robot: Robot, state, swing: str, stance: pin.SE3, nu: int):
+    def __init__(self, robot: Robot, state, swing: str, *, stance: pin.SE3, nu: int):
         super().__init__(state, 1, nu, True, False, False)
         self._model = robot.model
         self._frame = robot.foot_frames[swing]
@@ -228,13 +228,13 @@ class SoleGapResidual(crocoddyl.ResidualModelAbstract):
         data.Rx[..., : self._model.nv] = gradient  # (1, ndx), which the bindings show as (ndx,)
 
 
-def sole_gap_cost(robot: Robot, state, swing: str, stance: pin.SE3, nu: int, min_gap: float):
+def sole_gap_cost(robot: Robot, state, swing: str, *, stance: pin.SE3, nu: int, min_gap: float):
     """The swing sole at least ``min_gap`` (m) from the stance sole at ``stance`` (:func:`soles_gap`)."""
     activation = crocoddyl.ActivationModelQuadraticBarrier(crocoddyl.ActivationBounds(np.array([min_gap]), np.array([INF])))
-    return crocoddyl.CostModelResidual(state, activation, SoleGapResidual(robot, state, swing, stance, nu))
+    return crocoddyl.CostModelResidual(state, activation, SoleGapResidual(robot, state, swing, stance=stance, nu=nu))
 
 
-def foot_placement_cost(robot: Robot, state, side: str, placement: pin.SE3, nu: int):
+def foot_placement_cost(robot: Robot, state, side: str, *, placement: pin.SE3, nu: int):
     """Sole at a placement (position and flat orientation)."""
     residual = crocoddyl.ResidualModelFramePlacement(state, robot.foot_frames[side], placement, nu)
     return crocoddyl.CostModelResidual(state, residual)
@@ -249,6 +249,7 @@ def contact_knot(
     robot: Robot,
     state: crocoddyl.StateMultibody,
     stance: dict[str, pin.SE3],
+    *,
     x_ref: np.ndarray,
     settings: OCPSettings,
     dt: float,
@@ -276,21 +277,24 @@ def contact_knot(
     contacts = crocoddyl.ContactModelMultiple(state, nu)
     costs = crocoddyl.CostModelSum(state, nu)
     for side, placement in stance.items():
-        contacts.addContact(f"{side}_contact", contact_6d(robot, state, side, placement, nu, dt))
+        contacts.addContact(f"{side}_contact", contact_6d(robot, state, side, placement=placement, nu=nu, dt=dt))
         # the discretised contact lets a sole creep; an optimiser would use that to save
         # torque, so the sole is also held at its placement by a stiff penalty
-        costs.addCost(f"{side}_anchor", foot_placement_cost(robot, state, side, placement, nu), settings.w_anchor)
+        costs.addCost(f"{side}_anchor", foot_placement_cost(robot, state, side, placement=placement, nu=nu),
+                      settings.w_anchor)
         if not terminal:
-            costs.addCost(f"{side}_wrench_cone", wrench_cone_cost(robot, state, side, nu, settings), settings.w_constraint)
+            costs.addCost(f"{side}_wrench_cone", wrench_cone_cost(robot, state, side, nu=nu, settings=settings),
+                          settings.w_constraint)
         if not terminal and load_shares is not None and settings.w_load_transfer > 0:
             load = load_shares[side] * robot.mass * GRAVITY
-            costs.addCost(f"{side}_load", load_transfer_cost(robot, state, side, load, nu), settings.w_load_transfer)
+            costs.addCost(f"{side}_load", load_transfer_cost(robot, state, side, force=load, nu=nu),
+                          settings.w_load_transfer)
     if not terminal:
         costs.addCost("torque", torque_cost(state, nu), settings.w_torque)
     if x_target is not None:
         costs.addCost("continuity", state_target_cost(state, x_target, nu), settings.w_target)
-    costs.addCost("posture", posture_cost(robot, state, nu, x_ref, settings), 1.0)
-    costs.addCost("joint_limits", joint_limit_cost(robot, state, nu, settings), settings.w_limits)
+    costs.addCost("posture", posture_cost(robot, state, nu, x_ref=x_ref, settings=settings), 1.0)
+    costs.addCost("joint_limits", joint_limit_cost(robot, state, nu, settings=settings), settings.w_limits)
     if swing is not None:
         (support,) = stance.values()  # single support: one stance sole
         costs.addCost(
@@ -299,17 +303,19 @@ def contact_knot(
                 robot,
                 state,
                 swing,
-                nu,
-                clearance,
-                settings.swing_lateral_gap + 2 * robot.sole.half_width if sole_gap is None else None,
-                support.translation[1],
+                nu=nu,
+                min_height=clearance,
+                min_lateral=settings.swing_lateral_gap + 2 * robot.sole.half_width if sole_gap is None else None,
+                stance_y=support.translation[1],
             ),
             settings.w_constraint * 10,
         )
         if sole_gap is not None:
-            costs.addCost("sole_gap", sole_gap_cost(robot, state, swing, support, nu, sole_gap), settings.w_sole_gap)
+            costs.addCost("sole_gap", sole_gap_cost(robot, state, swing, stance=support, nu=nu, min_gap=sole_gap),
+                          settings.w_sole_gap)
         if swing_guide is not None:
-            costs.addCost("swing_guide", foot_placement_cost(robot, state, swing, swing_guide, nu), settings.w_swing_guide)
+            costs.addCost("swing_guide", foot_placement_cost(robot, state, swing, placement=swing_guide, nu=nu),
+                          settings.w_swing_guide)
     dynamics = crocoddyl.DifferentialActionModelContactFwdDynamics(state, actuation, contacts, costs, 0.0, True)
     model = crocoddyl.IntegratedActionModelEuler(dynamics, dt)
     model.u_lb = -robot.tau_max
@@ -321,6 +327,7 @@ def impulse_knot(
     robot: Robot,
     state: crocoddyl.StateMultibody,
     landing: str,
+    *,
     placement: pin.SE3,
     x_ref: np.ndarray,
     settings: OCPSettings,
@@ -333,10 +340,11 @@ def impulse_knot(
             crocoddyl.ImpulseModel6D(state, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED),
         )
     costs = crocoddyl.CostModelSum(state, 0)
-    costs.addCost("landing", foot_placement_cost(robot, state, landing, placement, 0), settings.w_placement)
-    costs.addCost("posture", posture_cost(robot, state, 0, x_ref, settings), 1.0)
+    costs.addCost("landing", foot_placement_cost(robot, state, landing, placement=placement, nu=0),
+                  settings.w_placement)
+    costs.addCost("posture", posture_cost(robot, state, 0, x_ref=x_ref, settings=settings), 1.0)
     # the pre-impact state is no running knot's input: limits and a soft touchdown here
-    costs.addCost("joint_limits", joint_limit_cost(robot, state, 0, settings), settings.w_limits * settings.dt)
+    costs.addCost("joint_limits", joint_limit_cost(robot, state, 0, settings=settings), settings.w_limits * settings.dt)
     touchdown = crocoddyl.ResidualModelFrameVelocity(
         state, robot.foot_frames[landing], pin.Motion.Zero(), pin.LOCAL_WORLD_ALIGNED, 0
     )

@@ -29,7 +29,7 @@ def _right_support(spec: StepSpec) -> StepSpec:
     return spec if spec.swing_side == "left" else spec.mirrored()
 
 
-def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], settings: dict) -> Motion:
+def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], *, settings: dict) -> Motion:
     """The motion of one step in its own frame (stance sole at the origin): from ``motions``
     if solved there; a missing transition is solved between the gait states of its lengths,
     with the timing of the gait it leaves, exactly as the dataset's transitions are."""
@@ -40,7 +40,8 @@ def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], 
         if right.kind != "transition" or missing:
             raise Error(f"cannot solve {spec.name}: the dataset has no {', '.join(missing) or right.name}")
         solved, attempts = solve_transition(
-            robot, OCPSettings.from_saved(settings), right, motions[cyclic[right.start_length]], motions[cyclic[right.end_length]]
+            robot, OCPSettings.from_saved(settings), right, cyclic_from=motions[cyclic[right.start_length]],
+            cyclic_to=motions[cyclic[right.end_length]]
         )
         if solved is None:
             raise Error(f"the OCP of {right.name} did not converge: {attempts}")
@@ -49,11 +50,11 @@ def solve_step_motion(robot: Robot, spec: StepSpec, motions: dict[str, Motion], 
     return motion if spec.swing_side == "left" else mirror_motion(robot, motion)
 
 
-def place(robot: Robot, motion: Motion, stance_xy: np.ndarray, stance_yaw: float = 0.0) -> Motion:
+def place(robot: Robot, motion: Motion, stance_xy: np.ndarray, *, stance_yaw: float = 0.0) -> Motion:
     """A step motion moved from its own frame onto the world pose of its stance sole: turned
     by ``stance_yaw`` (rad) about the vertical, then moved to ``stance_xy``.  Velocities are
     in the base frame (unchanged); the ZMP and the wrenches' world-aligned axes turn."""
-    q = translate_state(robot, turn_state(robot, motion.q, stance_yaw), *stance_xy[:2])
+    q = translate_state(robot, turn_state(robot, motion.q, stance_yaw), stance_xy[:2])
     c, s = np.cos(stance_yaw), np.sin(stance_yaw)
     rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     zmp = motion.zmp @ rotation.T
@@ -95,6 +96,7 @@ def solve_sequence(
     robot: Robot,
     specs: list[StepSpec],
     motions: dict[str, Motion],
+    *,
     settings: dict,
     progress: bool = False,
 ) -> Motion:
@@ -109,9 +111,9 @@ def solve_sequence(
     placed = []
     for spec, feet in tqdm(list(zip(specs, footsteps(robot, specs))), desc="M_opt steps", disable=not progress, leave=False):
         stance = OTHER_SIDE[spec.swing_side]
-        motion = solve_step_motion(robot, spec, motions, settings)
+        motion = solve_step_motion(robot, spec, motions, settings=settings)
         # a step's frame: the stance sole at the origin, facing +x
-        placed.append(place(robot, motion, feet["start"][stance][:2], feet["yaw"]["start"][stance]))
+        placed.append(place(robot, motion, feet["start"][stance][:2], stance_yaw=feet["yaw"]["start"][stance]))
     walk = concatenate(placed)
     walk.meta["solved_now"] = sorted(set(motions) - known)  # the rest came from ``motions``
     return walk

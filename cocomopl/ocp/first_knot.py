@@ -11,7 +11,7 @@ least-normal-force row and two yaw-moment rows lie on their bounds.
 A warm start has those rows inside, so the model does not see the cone. The first full step
 then pushes the wrench past it by 1-3 N. That adds hundreds or thousands to a step's cost of
 40-60, and costs a second iteration to repair
-(docs/experiments/bumps-and-refinement-leads.md, session 38).
+(docs/method.md#refinement; docs/experiments/bumps-and-refinement-leads.md).
 
 Here the first step at that knot is the exact minimiser of the solver's own quadratic model
 of the knot. Each of the knot's barrier rows enters as the piecewise-quadratic penalty it is:
@@ -67,14 +67,43 @@ def first_knot_step(solver: crocoddyl.SolverBoxFDDP) -> np.ndarray | None:
     if not rows:
         return None
     Ru, r, lb, ub, weights = (np.array(column) for column in zip(*rows))
-    return _barrier_qp(Quu, Qu, Ru, r, lb, ub, weights,
-                       solver.problem.runningModels[0].u_lb - solver.us[0],
-                       solver.problem.runningModels[0].u_ub - solver.us[0])
+    knot = solver.problem.runningModels[0]
+    return barrier_qp(Quu, Qu, Ru, r=r, lb=lb, ub=ub, weights=weights,
+                      du_lb=knot.u_lb - solver.us[0], du_ub=knot.u_ub - solver.us[0])
 
 
-def _barrier_qp(Quu, Qu, Ru, r, lb, ub, weights, du_lb, du_ub) -> np.ndarray | None:
-    """``argmin Qu' du + du' Quu du / 2 + sum w s^2 / 2`` over ``du`` and the slacks ``s``,
-    subject to ``lb - s <= r + Ru du <= ub + s`` and ``du_lb <= du <= du_ub``."""
+def barrier_qp(
+    Quu: np.ndarray,
+    Qu: np.ndarray,
+    Ru: np.ndarray,
+    *,
+    r: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    weights: np.ndarray,
+    du_lb: np.ndarray,
+    du_ub: np.ndarray,
+) -> np.ndarray | None:
+    """The control step minimising a quadratic model plus barrier rows, each as its exact
+    piecewise-quadratic penalty: ``argmin Qu' du + du' Quu du / 2 + sum w s^2 / 2`` over ``du``
+    and the slacks ``s``, subject to ``lb - s <= r + Ru du <= ub + s`` and ``du_lb <= du <= du_ub``.
+
+    Parameters
+    ----------
+    Quu, Qu : np.ndarray
+        The quadratic model's Hessian ``(nu, nu)`` and gradient ``(nu,)``.
+    Ru : np.ndarray
+        The barrier rows' derivatives ``(m, nu)`` in the control.
+    r, lb, ub, weights : np.ndarray
+        The rows' values at ``du = 0``, their bounds (infinite where open) and their weights, ``(m,)``.
+    du_lb, du_ub : np.ndarray
+        Bounds of the step ``(nu,)``.
+
+    Returns
+    -------
+    np.ndarray or None
+        The step ``du``, or ``None`` if the QP fails.
+    """
     nu, m = Qu.size, r.size
     H = np.zeros((nu + m, nu + m))
     H[:nu, :nu] = 0.5 * (Quu + Quu.T)
@@ -129,4 +158,4 @@ def _inner(model_or_data):
     return getattr(model_or_data, "inner", model_or_data)
 
 
-__all__ = ["first_knot_step", "full_step"]
+__all__ = ["barrier_qp", "first_knot_step", "full_step"]

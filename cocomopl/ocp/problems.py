@@ -8,6 +8,7 @@ support, single support, touchdown impulse -- that :func:`build_problem` turns i
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import crocoddyl
@@ -55,8 +56,10 @@ class StepPlan:
     tau0: np.ndarray | None = None
 
 
-def translate_state(robot: Robot, x: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    """Move a state's floating base horizontally (velocities are in the base frame: unchanged)."""
+def translate_state(robot: Robot, x: np.ndarray, offset: Sequence[float]) -> np.ndarray:
+    """Move a state's floating base horizontally by ``offset`` (dx, dy) m (velocities are in
+    the base frame: unchanged)."""
+    dx, dy = offset
     out = np.array(x, dtype=float, copy=True)
     out[..., 0] += dx
     out[..., 1] += dy
@@ -77,14 +80,14 @@ def turn_state(robot: Robot, x: np.ndarray, yaw: float) -> np.ndarray:
 
 
 def next_step_state(robot: Robot, x_start_next: np.ndarray, landed_at: tuple[float, float],
-                    landed_yaw: float = 0.0) -> np.ndarray:
+                    *, landed_yaw: float = 0.0) -> np.ndarray:
     """Where the next step's start state lies in this step's frame.
 
     ``x_start_next`` is the next step's start in its own (right-support) frame; the next
     step stands on the foot that just landed at ``landed_at`` turned by ``landed_yaw``, so it
     is mirrored, turned and moved there.
     """
-    return translate_state(robot, turn_state(robot, mirror_state(robot, x_start_next), landed_yaw), *landed_at)
+    return translate_state(robot, turn_state(robot, mirror_state(robot, x_start_next), landed_yaw), landed_at)
 
 
 def _knots(duration: float, dt: float) -> int:
@@ -95,6 +98,7 @@ def walk_phases(
     specs: list[StepSpec],
     separation: float,
     settings: OCPSettings,
+    *,
     durations: tuple[float, float] | None = None,
 ) -> list[Phase]:
     """Phases of consecutive steps, feet alternating, the first swing foot the left one.
@@ -106,8 +110,9 @@ def walk_phases(
     dt = settings.dt
     first = specs[0]
     right = np.zeros(3)
-    left = (footstep_pose(right, "left", 0.0, 0.0, 0.0, separation) if first.kind == "start" else
-            footstep_origin(right, "right", first.start_length, first.start_width, first.start_turn, separation))
+    left = (footstep_pose(right, "left", (0.0, 0.0, 0.0), separation=separation) if first.kind == "start" else
+            footstep_origin(right, "right", (first.start_length, first.start_width, first.start_turn),
+                            separation=separation))
     feet = {"right": right, "left": left}
     phases: list[Phase] = []
     swing = "left"
@@ -122,7 +127,7 @@ def walk_phases(
         swing = OTHER_SIDE[swing]
 
     def landing(length: float, width: float, turn: float) -> np.ndarray:
-        return footstep_pose(feet[OTHER_SIDE[swing]], swing, length, width, turn, separation)
+        return footstep_pose(feet[OTHER_SIDE[swing]], swing, (length, width, turn), separation=separation)
 
     for spec in specs:
         if spec.kind == "start":
@@ -161,7 +166,7 @@ def _swing_guide(phase: Phase, s: float, clearance: float) -> pin.SE3:
     return pin.SE3(flat_placement(0.0, 0.0, yaw).rotation, np.array([xy[0], xy[1], z]))
 
 
-def swing_gap(robot: Robot, phase: Phase, stance: pin.SE3, settings: OCPSettings) -> float | None:
+def swing_gap(robot: Robot, phase: Phase, stance: pin.SE3, *, settings: OCPSettings) -> float | None:
     """The least gap (m) between the soles' rectangles through single-support ``phase``, if a
     sole turns: ``settings.sole_gap``, or less where the swing sole lifts off or lands closer.
     Soles that all face ahead need none: the swing's lane keeps them apart."""
@@ -213,12 +218,13 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
     for i, phase in enumerate(plan.phases):
         if phase.kind == "ds":
             knots += [
-                contact_knot(robot, state, dict(feet), x_ref, settings, settings.dt, load_shares=shares)
+                contact_knot(robot, state, dict(feet), x_ref=x_ref, settings=settings, dt=settings.dt,
+                             load_shares=shares)
                 for shares in load_shares(plan.phases, i, plan.spec.kind == "start")
             ]
         elif phase.kind == "ss":
             stance = {OTHER_SIDE[phase.swing]: feet[OTHER_SIDE[phase.swing]]}
-            gap = swing_gap(robot, phase, feet[OTHER_SIDE[phase.swing]], settings)
+            gap = swing_gap(robot, phase, feet[OTHER_SIDE[phase.swing]], settings=settings)
             for k in range(phase.knots):
                 s = (k + 1) / phase.knots
                 in_air = 0.25 <= s <= 0.75
@@ -227,9 +233,9 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
                         robot,
                         state,
                         stance,
-                        x_ref,
-                        settings,
-                        settings.dt,
+                        x_ref=x_ref,
+                        settings=settings,
+                        dt=settings.dt,
                         swing=phase.swing,
                         swing_guide=_swing_guide(phase, s, settings.clearance),
                         clearance=settings.clearance if in_air else -1.0,
@@ -238,14 +244,15 @@ def build_problem(robot: Robot, plan: StepPlan, settings: OCPSettings) -> crocod
                 )
         elif phase.kind == "impact":
             feet[phase.swing] = _flat(phase.swing_to, phase.yaw_to)
-            knots.append(impulse_knot(robot, state, phase.swing, feet[phase.swing], x_ref, settings))
+            knots.append(impulse_knot(robot, state, phase.swing, placement=feet[phase.swing], x_ref=x_ref,
+                                      settings=settings))
         else:
             raise ValueError(f"unknown phase kind {phase.kind!r}")
-    terminal = contact_knot(robot, state, dict(feet), x_ref, settings, 0.0, x_target=plan.x_target)
+    terminal = contact_knot(robot, state, dict(feet), x_ref=x_ref, settings=settings, dt=0.0, x_target=plan.x_target)
     return crocoddyl.ShootingProblem(plan.x0, knots, terminal)
 
 
-def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: OCPSettings) -> list[np.ndarray]:
+def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, *, settings: OCPSettings) -> list[np.ndarray]:
     """A kinematic warm start: feet on their planned paths, the CoM shifted over the stance
     foot in double support and kept there in single support, solved knot by knot by
     inverse kinematics; velocities by finite differences."""
@@ -273,13 +280,13 @@ def initial_guess(robot: Robot, phases: list[Phase], x0: np.ndarray, settings: O
                 goal = feet[stance].translation[:2] + feet[stance].rotation[:2, :2] @ np.array([0.0, inward[stance]])
             for k in range(phase.knots):
                 c = com + (goal - com) * (k + 1) / phase.knots
-                postures.append(inverse_kinematics(robot, feet, c, postures[-1], iterations=20, check=False))
+                postures.append(inverse_kinematics(robot, feet, c, q_init=postures[-1], iterations=20, check=False))
             com = goal
         elif phase.kind == "ss":
             for k in range(phase.knots):
                 s = (k + 1) / phase.knots
                 feet[phase.swing] = _swing_guide(phase, s, settings.clearance)
-                postures.append(inverse_kinematics(robot, feet, com, postures[-1], iterations=20, check=False))
+                postures.append(inverse_kinematics(robot, feet, com, q_init=postures[-1], iterations=20, check=False))
         else:  # impact: no time passes
             feet[phase.swing] = _flat(phase.swing_to, phase.yaw_to)
             postures.append(postures[-1])

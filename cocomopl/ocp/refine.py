@@ -78,7 +78,7 @@ from cocomopl.robot import Robot, mirror_joints, mirror_motion, mirror_state
 
 START_BLEND_S = 0.4  # s over which a warm start moves from its pinned start onto the generated step
 # the same for a solved step, whose states are dynamically consistent: tuned on seed-11 walks
-# (docs/experiments/bumps-and-refinement-leads.md, session 37)
+# (docs/experiments/bumps-and-refinement-leads.md)
 NEAREST_START_BLEND_S = 0.25
 FEASIBLE = 1e-6  # largest dynamic gap of a converged solution (the dataset's)
 WINDOW = 5  # iterations over which a stalled solver's cost must settle
@@ -136,7 +136,7 @@ def nearest_solved_step(robot: Robot, spec: StepSpec, solved: dict[str, Motion])
     the guess's states are faded onto the pinned start: a rear sole that slides there opens
     dynamic gaps under the stiff contacts, while an end that differs only costs (on seed-11
     walks, 98 of 144 steps in 3 iterations or fewer against 88 with the two summed;
-    docs/experiments/bumps-and-refinement-leads.md, session 37)."""
+    docs/experiments/bumps-and-refinement-leads.md)."""
     def distance(a: Footstep, b: Footstep) -> float:
         return abs(a.length - b.length) + abs(a.width - b.width) + robot.sole.front * abs(a.turn - b.turn)
     alike = [m for m in solved.values() if len(m.steps) == 1
@@ -158,7 +158,7 @@ def solved_steps_around(spec: StepSpec, solved: dict[str, Motion]) -> tuple[dict
 
     Interpolated between the corners, a guess is right at both footsteps, where the nearest
     solved step is right at one (on seed-11 walks, a median 2 iterations instead of 3;
-    docs/experiments/bumps-and-refinement-leads.md, session 38)."""
+    docs/method.md#refinement)."""
     if not spec.straight:
         return None
     kinds = {"transition", "cyclic"} if spec.kind in ("transition", "cyclic") else {spec.kind}
@@ -209,7 +209,7 @@ def _guess(robot: Robot, walk: Motion, rows: np.ndarray, k: int, origin: np.ndar
     touchdowns = [i for i in walk.impacts if first <= i < last]
     segment = np.searchsorted(np.array(touchdowns), rows, side="left")
     stance = OTHER_SIDE[spec.swing_side]
-    states = translate_state(robot, np.hstack([walk.q[rows], walk.v[rows]]), -origin[0], -origin[1])
+    states = translate_state(robot, np.hstack([walk.q[rows], walk.v[rows]]), (-origin[0], -origin[1]))
     states = turn_state(robot, states, -yaw)
     torques = walk.tau[rows]
     if stance == "left":
@@ -257,7 +257,7 @@ def _resample(guess: StepGuess, values: np.ndarray, t: float, segment: int) -> n
     return (1.0 - share) * values[rows[i]] + share * values[rows[i + 1]]
 
 
-def warm_start(robot: Robot, guess: StepGuess, phases: list, x0: np.ndarray,
+def warm_start(robot: Robot, guess: StepGuess, phases: list, *, x0: np.ndarray,
                dt: float, fade_s: float = START_BLEND_S) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The generated step on the problem's knots: states and the walk's own torques.
 
@@ -322,7 +322,7 @@ def resting_state(robot: Robot, x_stance: float = 0.0) -> np.ndarray:
     return robot.state_from_posture(double_support_posture(robot, (x_stance, separation), (x_stance, 0.0)))
 
 
-def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settings: OCPSettings,
+def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, *, settings: OCPSettings,
                    tau0: np.ndarray | None = None, gait_states: dict | None = None) -> StepPlan:
     """The OCP of a generated step: its phases, start (``None``: at rest), the torques before it
     (``None``: those holding the start) and end target: at rest after a stop, the gait state of
@@ -335,7 +335,7 @@ def step_plan_from(robot: Robot, guess: StepGuess, x0: np.ndarray | None, settin
         return StepPlan(guess.spec, phases, x0, resting_at_the_end(robot, phases), tau0)
     gait = gait_state(robot, gait_states or {}, guess.spec.end_footstep.gait_key)
     if gait is not None:
-        target = next_step_state(robot, gait, landing_point(phases), landing_yaw(phases))
+        target = next_step_state(robot, gait, landing_point(phases), landed_yaw=landing_yaw(phases))
     else:
         target = still_soles(robot, guess.states[-1])
     return StepPlan(guess.spec, phases, x0, target, tau0)
@@ -351,7 +351,7 @@ def gait_state(robot: Robot, gait_states: dict, key: float | tuple) -> np.ndarra
     An OC gait state is a consistent end for a step between trained footsteps: held instead
     to the generated junction, a step's optimum lies away from every solved step, and
     refinement from the nearest solved step took a median 4-6 iterations on seed-11 walks
-    instead of 3-4 (docs/experiments/bumps-and-refinement-leads.md, session 36).
+    instead of 3-4 (docs/experiments/bumps-and-refinement-leads.md).
     """
     if key in gait_states:
         return gait_states[key]
@@ -404,7 +404,7 @@ def _interpolated(robot: Robot, grid: dict, brackets: list, corner: tuple) -> np
     return np.concatenate([q, (1.0 - share) * a[nq:] + share * b[nq:]])
 
 
-def iterate(solver, xs: list, us: list, budget: int, tolerance: float, exact_first_knot: bool = False) -> dict:
+def iterate(solver, xs: list, us: list, *, budget: int, tolerance: float, exact_first_knot: bool = False) -> dict:
     """Run ``solver`` one iteration at a time until no step from where it stands is expected
     to lower the cost by more than ``tolerance`` of it, or the cost has settled (see the module).
     With ``exact_first_knot``, the first iteration is :func:`_first_iteration`'s."""
@@ -477,16 +477,17 @@ def best_expected_decrease(d1: float, d2: float) -> float:
     return d1 + 0.5 * d2
 
 
-def solve_warm(robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list, us: Controls,
+def solve_warm(robot: Robot, plan: StepPlan, settings: OCPSettings, *, xs: list, us: Controls,
                budget: int | None = None, exact_first_knot: bool = False) -> Solution:
     """Solve ``plan`` from the states ``xs`` and controls ``us`` (None: quasi-static; a function:
     of the problem and the states, as :func:`~cocomopl.ocp.solve.prepared_problem` takes them), iterating as
     :func:`iterate` does, its first step at the first knot exact with ``exact_first_knot``.
     ``converged``: settled and accepted as the dataset accepts a step
     (:func:`~cocomopl.ocp.solve.failed_checks`); ``settled``: the cost test alone."""
-    problem, solver, xs, us = prepared_problem(robot, plan, settings, xs, us)
-    stats = iterate(solver, xs, us, budget or settings.max_iterations, settings.tolerance, exact_first_knot)
-    solution = solution_of(problem, solver, plan, stats)
+    problem, solver, xs, us = prepared_problem(robot, plan, settings, xs=xs, us=us)
+    stats = iterate(solver, xs, us, budget=budget or settings.max_iterations, tolerance=settings.tolerance,
+                    exact_first_knot=exact_first_knot)
+    solution = solution_of(problem, solver, plan, stats=stats)
     # as the dataset accepts a step: settled, and passing the independent checks at its target
     failed, gap = failed_checks(robot, solution, settings)
     solution.stats.update(settled=stats["converged"], converged=stats["converged"] and not failed,
@@ -509,7 +510,7 @@ def check_refinable(walk: Motion, robot: Robot) -> None:
         raise Error(f"the walk is for robot {walk.robot!r} and the dataset's OCPs for {robot.name!r}")
 
 
-def guess_states(robot: Robot, guess: StepGuess, plan: StepPlan, dt: float, warm_start_from: str,
+def guess_states(robot: Robot, guess: StepGuess, plan: StepPlan, *, dt: float, warm_start_from: str,
                  solved: dict[str, Motion] | None) -> tuple[list[np.ndarray], str]:
     """The states a step's OCP starts from, on its knots and from its pinned start, and what
     they came from (the solved steps' names, ``+``-joined, or ``"generated"``).
@@ -521,7 +522,8 @@ def guess_states(robot: Robot, guess: StepGuess, plan: StepPlan, dt: float, warm
     holds no step of its kind, or with ``"generated"``, the generated step.
     """
     def mapped(step: Motion) -> list[np.ndarray]:
-        return warm_start(robot, solved_step_guess(robot, step), plan.phases, plan.x0, dt, NEAREST_START_BLEND_S)[0]
+        return warm_start(robot, solved_step_guess(robot, step), plan.phases, x0=plan.x0, dt=dt,
+                          fade_s=NEAREST_START_BLEND_S)[0]
 
     around = solved_steps_around(guess.spec, solved) if warm_start_from == "interpolated" else None
     if around is not None:
@@ -533,10 +535,10 @@ def guess_states(robot: Robot, guess: StepGuess, plan: StepPlan, dt: float, warm
     nearest = nearest_solved_step(robot, guess.spec, solved) if warm_start_from != "generated" else None
     if nearest is not None:
         return mapped(nearest), nearest.name
-    return warm_start(robot, guess, plan.phases, plan.x0, dt, START_BLEND_S)[0], "generated"
+    return warm_start(robot, guess, plan.phases, x0=plan.x0, dt=dt, fade_s=START_BLEND_S)[0], "generated"
 
 
-def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: bool = False,
+def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, *, progress: bool = False,
                 gait_states: dict | None = None, warm_start_from: str = "generated",
                 solved: dict[str, Motion] | None = None) -> RefinedWalk:
     """Refine every step of a generated ``walk`` (straight, turning or side-stepping) by the
@@ -563,14 +565,15 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
     feet = footsteps(robot, walk.steps)
     placed, rows, plans, x0, tau0 = [], [], [], None, None
     for k, guess in enumerate(tqdm(step_guesses(robot, walk), desc="refining steps", disable=not progress, leave=False)):
-        plan = step_plan_from(robot, guess, x0, settings, tau0, gait_states)
+        plan = step_plan_from(robot, guess, x0, settings=settings, tau0=tau0, gait_states=gait_states)
         plans.append(plan)
         step_started = time.perf_counter()
-        xs, started_from = guess_states(robot, guess, plan, settings.dt, warm_start_from, solved)
+        xs, started_from = guess_states(robot, guess, plan, dt=settings.dt, warm_start_from=warm_start_from,
+                                        solved=solved)
         guess_s = time.perf_counter() - step_started
         # a full step without a line search suits a solved step's guess, consistent and near
         # the optimum; from the generated step it took a median 21 iterations instead of 11
-        solution = solve_warm(robot, plan, settings, xs, partial(inverse_dynamics_controls, robot),
+        solution = solve_warm(robot, plan, settings, xs=xs, us=partial(inverse_dynamics_controls, robot),
                               exact_first_knot=started_from != "generated")
         if not solution.stats["converged"]:
             solution = _fall_back(robot, plan, settings, solution)
@@ -583,7 +586,7 @@ def refine_walk(robot: Robot, walk: Motion, settings: OCPSettings, progress: boo
         stance = OTHER_SIDE[walk.steps[k].swing_side]
         if stance == "left":
             motion = mirror_motion(robot, motion)
-        placed.append(place(robot, motion, feet[k]["start"][stance][:2], feet[k]["yaw"]["start"][stance]))
+        placed.append(place(robot, motion, feet[k]["start"][stance][:2], stance_yaw=feet[k]["yaw"]["start"][stance]))
     refined = concatenate(placed)
     refined.meta.update({"producer": "ocp", "refined_from": "primitives", "solver": rows})
     return RefinedWalk(refined, rows, plans, time.perf_counter() - started)
@@ -607,19 +610,20 @@ def _next_start(robot: Robot, solution: Solution) -> tuple[np.ndarray, np.ndarra
     the torques stay smooth across the junction, as within a step)."""
     landed = landing_point(solution.plan.phases)
     last_torques = next(u for u in reversed(solution.us) if len(u))
-    end = turn_state(robot, translate_state(robot, solution.xs[-1], -landed[0], -landed[1]), -landing_yaw(solution.plan.phases))
+    end = turn_state(robot, translate_state(robot, solution.xs[-1], (-landed[0], -landed[1])),
+                     -landing_yaw(solution.plan.phases))
     return mirror_state(robot, end), mirror_joints(robot, last_torques)
 
 
-def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, budget: int | None = None) -> Solution:
+def cold_solve(robot: Robot, plan: StepPlan, settings: OCPSettings, *, budget: int | None = None) -> Solution:
     """The same plan from the dataset's own initial guess (feet on their paths by inverse
     kinematics), iterated as a refinement from the generated step is: the first step is
     box-FDDP's own (see :func:`refine_walk`).  Its wall times as :func:`refine_walk` records a
     step's: ``guess_s`` and ``step_s`` besides the solver's."""
     started = time.perf_counter()
-    xs = initial_guess(robot, plan.phases, plan.x0, settings)
+    xs = initial_guess(robot, plan.phases, plan.x0, settings=settings)
     guess_s = time.perf_counter() - started
-    solution = solve_warm(robot, plan, settings, xs, None, budget)
+    solution = solve_warm(robot, plan, settings, xs=xs, us=None, budget=budget)
     solution.stats.update(guess_s=guess_s, step_s=time.perf_counter() - started)
     return solution
 

@@ -55,13 +55,14 @@ class Solution:
     stats: dict = field(default_factory=dict)
 
 
-def initial_states(robot: Robot, plan: StepPlan, settings: OCPSettings, guess: str | list[np.ndarray]) -> list[np.ndarray]:
+def initial_states(robot: Robot, plan: StepPlan, settings: OCPSettings, *,
+                   guess: str | list[np.ndarray]) -> list[np.ndarray]:
     """The initial state trajectory ``guess`` names: ``"kinematic"`` (feet on their paths by
     inverse kinematics), ``"static"`` (the initial state held), or the states themselves."""
     if not isinstance(guess, str):
         xs = [np.asarray(x) for x in guess]
     elif guess == "kinematic":
-        xs = initial_guess(robot, plan.phases, plan.x0, settings)
+        xs = initial_guess(robot, plan.phases, plan.x0, settings=settings)
     elif guess == "static":
         xs = [plan.x0] * state_count(plan.phases)
     else:
@@ -74,7 +75,7 @@ Controls = list[np.ndarray] | Callable[[crocoddyl.ShootingProblem, list[np.ndarr
 
 
 def prepared_problem(
-    robot: Robot, plan: StepPlan, settings: OCPSettings, xs: list[np.ndarray], us: Controls = None
+    robot: Robot, plan: StepPlan, settings: OCPSettings, *, xs: list[np.ndarray], us: Controls = None
 ) -> tuple[crocoddyl.ShootingProblem, crocoddyl.SolverBoxFDDP, list[np.ndarray], list[np.ndarray]]:
     """The plan's problem, its box-FDDP solver (torque limits are hard bounds) and the initial
     guess in the solver's state: states ``xs`` and controls ``us`` (None: quasi-static; a
@@ -99,14 +100,15 @@ def solve_plan(
     robot: Robot,
     plan: StepPlan,
     settings: OCPSettings,
+    *,
     guess: str | list[np.ndarray] = "kinematic",
     max_iterations: int | None = None,
     controls: list[np.ndarray] | None = None,
 ) -> Solution:
     """Solve one plan with Crocoddyl's box-constrained FDDP from the initial states ``guess``
     (:func:`initial_states`) and ``controls`` (None: quasi-static)."""
-    xs_init = initial_states(robot, plan, settings, guess)
-    problem, solver, xs_init, us_init = prepared_problem(robot, plan, settings, xs_init, controls)
+    xs_init = initial_states(robot, plan, settings, guess=guess)
+    problem, solver, xs_init, us_init = prepared_problem(robot, plan, settings, xs=xs_init, us=controls)
     budget = max_iterations or settings.max_iterations
     start = time.perf_counter()
     iterations, converged, previous_cost = 0, False, np.inf
@@ -130,10 +132,10 @@ def solve_plan(
         "converged": bool(converged),
         "solve_time_s": time.perf_counter() - start,
     }
-    return solution_of(problem, solver, plan, stats)
+    return solution_of(problem, solver, plan, stats=stats)
 
 
-def solution_of(problem: crocoddyl.ShootingProblem, solver, plan: StepPlan, stats: dict) -> Solution:
+def solution_of(problem: crocoddyl.ShootingProblem, solver, plan: StepPlan, *, stats: dict) -> Solution:
     """The :class:`Solution` a solver reached on ``problem`` (without the torque-rate states)."""
     nx = problem.runningModels[0].state.nx
     xs = np.array(solver.xs)[:, :nx]
@@ -189,7 +191,7 @@ def warm_up_plan(robot: Robot, footstep: float | Footstep, settings: OCPSettings
     return StepPlan(specs[0], phases, x_rest, resting_at_the_end(robot, phases))
 
 
-def warm_up_walk(robot: Robot, footstep: float | Footstep, settings: OCPSettings, guess: np.ndarray | None = None,
+def warm_up_walk(robot: Robot, footstep: float | Footstep, settings: OCPSettings, *, guess: np.ndarray | None = None,
                  controls: list[np.ndarray] | None = None, neighbour: np.ndarray | None = None) -> Solution:
     """A short walk at one footstep (:func:`warm_up_plan`), from rest to rest.
 
@@ -206,15 +208,15 @@ def warm_up_walk(robot: Robot, footstep: float | Footstep, settings: OCPSettings
     plan = warm_up_plan(robot, footstep, settings)
     knots = state_count(plan.phases)
     if neighbour is not None and len(neighbour) == knots:
-        guess, controls = continued_guess(robot, plan, settings, neighbour), None
+        guess, controls = continued_guess(robot, plan, settings, neighbour=neighbour), None
     # the walk only needs to settle into its gait, not to converge tightly
     fits = guess is not None and len(guess) == knots
     start = list(guess) if fits else "kinematic"
-    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), start, WALK_ITERATIONS,
-                      controls if fits else None)
+    return solve_plan(robot, plan, replace(settings, w_torque_rate=0.0), guess=start, max_iterations=WALK_ITERATIONS,
+                      controls=controls if fits else None)
 
 
-def continued_guess(robot: Robot, plan: StepPlan, settings: OCPSettings, neighbour: np.ndarray) -> list[np.ndarray]:
+def continued_guess(robot: Robot, plan: StepPlan, settings: OCPSettings, *, neighbour: np.ndarray) -> list[np.ndarray]:
     """The kinematic guess of ``plan`` with the upper body (the joints off the leg chains:
     positions and velocities) of a ``neighbour``'s solved states on the same knots.
 
@@ -228,7 +230,7 @@ def continued_guess(robot: Robot, plan: StepPlan, settings: OCPSettings, neighbo
     nq = robot.model.nq
     upper = robot.upper_body_joint_indices()
     columns = np.concatenate([7 + upper, nq + 6 + upper])
-    xs = initial_states(robot, plan, settings, "kinematic")
+    xs = initial_states(robot, plan, settings, guess="kinematic")
     for x, y in zip(xs[1:], neighbour[1:]):
         x[columns] = y[columns]
     return xs
@@ -257,7 +259,7 @@ def walk_segment(robot: Robot, walk: Solution, kind: str) -> list[np.ndarray]:
             feet[phase.swing] = (*phase.swing_to, phase.yaw_to)
         k += 1 if phase.kind == "impact" else phase.knots
     last = k if ds_seen == wanted[-1] + 1 else len(walk.xs) - 1
-    segment = turn_state(robot, translate_state(robot, walk.xs[first : last + 1], -origin[0], -origin[1]), -origin[2])
+    segment = turn_state(robot, translate_state(robot, walk.xs[first : last + 1], (-origin[0], -origin[1])), -origin[2])
     if stance == "left":
         segment = mirror_state(robot, segment)
     return list(segment)
@@ -267,6 +269,7 @@ def solve_with_retries(
     robot: Robot,
     spec: StepSpec,
     start_states: dict[float, np.ndarray],
+    *,
     settings: OCPSettings,
     guesses: list,
 ) -> tuple[Solution | None, list[dict]]:
@@ -280,7 +283,7 @@ def solve_with_retries(
         label = guess if isinstance(guess, str) else "warm start"
         budget = settings.max_iterations * (1 if i == 0 else 2)
         try:
-            solution = solve_step(robot, spec, start_states, settings, guess, budget)
+            solution = solve_step(robot, spec, start_states, settings=settings, guess=guess, max_iterations=budget)
         except Error as exc:
             attempts.append({"guess": label, "error": str(exc)})
             continue
@@ -327,6 +330,7 @@ def solve_length(
     robot: Robot,
     length: float | Footstep,
     settings: OCPSettings,
+    *,
     kinds: tuple[str, ...] = ("cyclic", "start", "stop"),
     cyclic_start: np.ndarray | None = None,
     walk_guess: np.ndarray | None = None,
@@ -374,7 +378,8 @@ def solve_length(
                     segment = walk_segment(robot, walk, "cyclic")
                     x0 = segment[0]
                     guesses = [segment, "kinematic", "static"]
-                    solution, record = solve_with_retries(robot, spec_of["cyclic"], {key: x0}, opts, guesses)
+                    solution, record = solve_with_retries(robot, spec_of["cyclic"], {key: x0}, settings=opts,
+                                                          guesses=guesses)
                     attempts.setdefault("cyclic", []).extend(record)
                     if solution is None:
                         continue
@@ -387,18 +392,20 @@ def solve_length(
                                "continued": continued})
             return np.inf if tried[ss] is None else tried[ss][0].stats["cost"]
 
-        best = descend(evaluate, settings.ss_duration, settings.ss_search_step, settings.ss_bounds)
+        best = descend(evaluate, settings.ss_duration, settings.ss_search_step, bounds=settings.ss_bounds)
         if tried[round(best, 6)] is None:
             return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
         solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
     else:
-        walk = warm_up_walk(robot, footstep, settings, walk_guess, walk_controls, neighbour_walk)
+        walk = warm_up_walk(robot, footstep, settings, guess=walk_guess, controls=walk_controls,
+                            neighbour=neighbour_walk)
     states = {key: cyclic_start}
     for kind in kinds:
         if kind == "cyclic":
             continue
         guesses = [walk_segment(robot, walk, kind), "kinematic", "static"]
-        solutions[kind], attempts[kind] = solve_with_retries(robot, spec_of[kind], states, settings, guesses)
+        solutions[kind], attempts[kind] = solve_with_retries(robot, spec_of[kind], states, settings=settings,
+                                                             guesses=guesses)
     info = {
         "start_state": cyclic_start,
         "durations": (settings.ds_duration, settings.ss_duration),
@@ -409,7 +416,7 @@ def solve_length(
     return solutions, info
 
 
-def descend(cost, start: float, step: float, bounds: tuple[float, float]) -> float:
+def descend(cost, start: float, step: float, *, bounds: tuple[float, float]) -> float:
     """A 1-D grid descent: from ``start``, move by ``step`` while the cost falls.
 
     Returns the grid point of least cost found, within ``bounds``.  ``step == 0`` only
@@ -432,7 +439,7 @@ def descend(cost, start: float, step: float, bounds: tuple[float, float]) -> flo
     return best
 
 
-def step_plan(robot: Robot, spec: StepSpec, start_states: dict, settings: OCPSettings) -> StepPlan:
+def step_plan(robot: Robot, spec: StepSpec, start_states: dict, *, settings: OCPSettings) -> StepPlan:
     """Initial state, phases and continuity target of a right-support step ``spec``;
     ``start_states``: the gait states ``S`` by :attr:`~cocomopl.motion.Footstep.gait_key`."""
     separation = foot_separation(robot)
@@ -445,7 +452,7 @@ def step_plan(robot: Robot, spec: StepSpec, start_states: dict, settings: OCPSet
         target = resting_at_the_end(robot, phases)
     else:
         target = next_step_state(robot, start_states[spec.end_footstep.gait_key], landing_point(phases),
-                                 landing_yaw(phases))
+                                 landed_yaw=landing_yaw(phases))
     return StepPlan(spec, phases, x0, target)
 
 
@@ -453,6 +460,7 @@ def solve_step(
     robot: Robot,
     spec: StepSpec,
     start_states: dict[float, np.ndarray],
+    *,
     settings: OCPSettings,
     guess: str | list[np.ndarray] = "kinematic",
     max_iterations: int | None = None,
@@ -460,11 +468,11 @@ def solve_step(
     """Solve a right-support step whose neighbours start in ``start_states[length]``."""
     if spec.swing_side != "left":
         raise Error("only right-support steps (left swing) are solved; left ones come by mirroring")
-    plan = step_plan(robot, spec, start_states, settings)
-    return solve_plan(robot, plan, settings, guess, max_iterations)
+    plan = step_plan(robot, spec, start_states, settings=settings)
+    return solve_plan(robot, plan, settings, guess=guess, max_iterations=max_iterations)
 
 
-def to_motion(robot: Robot, solution: Solution, settings: OCPSettings, producer: str = "ocp") -> Motion:
+def to_motion(robot: Robot, solution: Solution, settings: OCPSettings, *, producer: str = "ocp") -> Motion:
     """The :class:`Motion` of a solved step (in its step frame)."""
     xs, nq = solution.xs, robot.model.nq
     n = len(xs)
@@ -543,7 +551,7 @@ def phase_durations(cyclic: Motion) -> dict:
 
 
 def solve_transition(
-    robot: Robot, settings: OCPSettings, spec: StepSpec, cyclic_from: Motion, cyclic_to: Motion
+    robot: Robot, settings: OCPSettings, spec: StepSpec, *, cyclic_from: Motion, cyclic_to: Motion
 ) -> tuple[Motion | None, list]:
     """A transition step between the start states of two cyclic steps, warm-started from
     the cyclic step of its start length (or footstep).
@@ -557,5 +565,5 @@ def solve_transition(
         spec.end_footstep.gait_key: np.concatenate([cyclic_to.q[0], cyclic_to.v[0]]),
     }
     warm = list(np.hstack([cyclic_from.q, cyclic_from.v]))
-    solution, attempts = solve_with_retries(robot, spec, states, opts, [warm, "kinematic", "static"])
+    solution, attempts = solve_with_retries(robot, spec, states, settings=opts, guesses=[warm, "kinematic", "static"])
     return (None if solution is None else to_motion(robot, solution, opts)), attempts

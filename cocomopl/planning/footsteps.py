@@ -53,7 +53,7 @@ class Landing(NamedTuple):
         return {"x_m": self.x, "y_m": self.y, "yaw_deg": math.degrees(self.yaw), "side": self.side}
 
 
-def relative_footstep(robot: Robot, other: np.ndarray, landed: np.ndarray, side: str) -> Footstep:
+def relative_footstep(robot: Robot, other: np.ndarray, landed: np.ndarray, *, side: str) -> Footstep:
     """The footstep (length, width, turn) that puts sole ``side`` at pose ``landed`` from the
     other sole at pose ``other`` (:func:`cocomopl.gait.footstep_pose` inverted for the footstep)."""
     sign = 1.0 if side == "left" else -1.0
@@ -92,9 +92,9 @@ def landing_footsteps(robot: Robot, landings: Sequence[Landing]) -> list[Footste
         if k > 1 and landing.side == landings[k - 2].side:
             raise Error(f"landing {k}: the {landing.side} foot lands twice in a row (sides must alternate)")
         pose = np.array([landing.x, landing.y, landing.yaw])
-        footstep = _snapped(relative_footstep(robot, soles[OTHER_SIDE[landing.side]], pose, landing.side))
+        footstep = _snapped(relative_footstep(robot, soles[OTHER_SIDE[landing.side]], pose, side=landing.side))
         try:
-            check_footstep(robot, landing.side, *footstep)
+            check_footstep(robot, landing.side, footstep)
         except Error as error:
             raise Error(f"landing {k} ({landing.side} at {landing.x:g}, {landing.y:g} m, {math.degrees(landing.yaw):g} deg): {error}") from None
         soles[landing.side] = pose
@@ -117,12 +117,12 @@ def footstep_specs(footsteps: Sequence[Footstep], first_side: str) -> list[StepS
     """The steps of a walk whose feet, alternating from ``first_side``, land at ``footsteps``,
     then once more at the last of them (the stop's landing), then close up."""
     side = first_side
-    specs = [StepSpec.between("start", Footstep(0.0), footsteps[0], side)]
+    specs = [StepSpec.between("start", Footstep(0.0), footsteps[0], swing_side=side)]
     for previous, footstep in itertools.pairwise(footsteps):
         side = OTHER_SIDE[side]
         kind = "cyclic" if same_footstep(previous, footstep) else "transition"
-        specs.append(StepSpec.between(kind, previous, previous if kind == "cyclic" else footstep, side))
-    specs.append(StepSpec.between("stop", specs[-1].end_footstep, Footstep(0.0), OTHER_SIDE[side]))
+        specs.append(StepSpec.between(kind, previous, previous if kind == "cyclic" else footstep, swing_side=side))
+    specs.append(StepSpec.between("stop", specs[-1].end_footstep, Footstep(0.0), swing_side=OTHER_SIDE[side]))
     return specs
 
 

@@ -60,9 +60,10 @@ def steady_gait(length: float, lateral: float, turn: float) -> tuple[Footstep, F
     return Footstep(length, max(lateral, 0.0) + out, turn), Footstep(length, max(-lateral, 0.0) + out, -turn + 0.0)
 
 
-def gait_specs(n: int, lead: str, length: float, lateral: float, turn: float) -> list[StepSpec]:
-    """The steps of ``n`` landings of the gait (``length`` m, ``lateral`` m per pair, ``turn``
-    rad per step), ``lead`` foot first."""
+def gait_specs(n: int, lead: str, gait: Sequence[float]) -> list[StepSpec]:
+    """The steps of ``n`` landings of the ``gait`` (length m, lateral m per pair, turn rad per
+    step), ``lead`` foot first."""
+    length, lateral, turn = gait
     leading, trailing = steady_gait(length, lateral, turn)
     return footstep_specs([leading if k % 2 == 0 else trailing for k in range(n - 1)], lead)
 
@@ -81,15 +82,15 @@ def _solve(robot: Robot, goal: np.ndarray, n: int, lead: str, limits: dict) -> t
         return None
     low, high = np.array([l0, -lateral, -turn]), np.array([l1, lateral, turn])
     guess = np.clip([goal[0] / n, 2 * goal[1] / n, goal[2] / n], low, high)
-    fit = least_squares(lambda p: _end_error(robot, goal, gait_specs(n, lead, *p)), guess,
+    fit = least_squares(lambda p: _end_error(robot, goal, gait_specs(n, lead, p)), guess,
                         bounds=(low - 1e-12, high + 1e-12), xtol=1e-10, ftol=1e-12)
-    error = _end_error(robot, goal, gait_specs(n, lead, *fit.x))
+    error = _end_error(robot, goal, gait_specs(n, lead, fit.x))
     if np.hypot(error[0], error[1]) > POSITION_TOLERANCE_M or abs(error[2]) / YAW_WEIGHT_M > YAW_TOLERANCE_RAD:
         return None
     return tuple(float(v) for v in np.clip(fit.x, low, high))
 
 
-def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | None = None,
+def plan_to_goal(robot: Robot, goal: tuple[float, float, float], *, limits: dict | None = None,
                  accept: Callable[[list[StepSpec]], bool] | None = None) -> list[StepSpec]:
     """The steps of the fewest-landing steady gait whose feet end at ``goal``.
 
@@ -119,7 +120,7 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | 
             gait = _solve(robot, goal, n, lead, limits)
             if gait is None:
                 continue
-            specs = gait_specs(n, lead, *gait)
+            specs = gait_specs(n, lead, gait)
             if _clear(robot, specs) and (accept is None or accept(specs)):
                 return specs
     raise Error(
@@ -132,7 +133,7 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], limits: dict | 
     )
 
 
-def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], limits: dict | None = None,
+def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], *, limits: dict | None = None,
                  accept: Callable[[list[StepSpec]], bool] | None = None) -> list[StepSpec]:
     """The walks of :func:`plan_to_goal` to each of ``goals`` in turn: the robot stops at
     every goal, feet side by side, and walks on from there to the next.
@@ -149,7 +150,8 @@ def plan_through(robot: Robot, goals: Sequence[tuple[float, float, float]], limi
         here = midpoint(soles_after(robot, specs)) if specs else np.zeros(3)
         c, s = math.cos(here[2]), math.sin(here[2])
         dx, dy = goal[0] - here[0], goal[1] - here[1]
-        specs += plan_to_goal(robot, (c * dx + s * dy, -s * dx + c * dy, wrap_angle(goal[2] - here[2])), limits, accept)
+        specs += plan_to_goal(robot, (c * dx + s * dy, -s * dx + c * dy, wrap_angle(goal[2] - here[2])), limits=limits,
+                              accept=accept)
     return specs
 
 
@@ -163,9 +165,9 @@ def _clear(robot: Robot, specs: list[StepSpec]) -> bool:
         footstep = spec.start_footstep if spec.kind == "stop" else spec.end_footstep
         side = spec.swing_side
         try:
-            check_footstep(robot, side, *footstep)
+            check_footstep(robot, side, footstep)
             if spec.kind == "stop":
-                check_footstep(robot, OTHER_SIDE[side], 0.0, 0.0, 0.0)
+                check_footstep(robot, OTHER_SIDE[side], (0.0, 0.0, 0.0))
         except Error:
             return False
     return True

@@ -71,12 +71,12 @@ def _chol_solve_identity(L, xp=jnp):
     return np.swapaxes(L_inv, -1, -2) @ L_inv
 
 
-def mp_prior(params: dict, data: BoundData, kernel: str, xp=jnp):
+def mp_prior(params: dict, data: BoundData, kernel: str, *, xp=jnp):
     """Prior covariances ``A`` (S, T, T) of the MPs."""
     alpha = xp.exp(params["log_alpha_t"])[:, None, None]
     ell = xp.exp(params["log_ell_t"])[:, None, None]
     T = data.r.shape[0]
-    return time_kernel(kernel, data.r[None], alpha, ell, xp) + JITTER * alpha * xp.eye(T)
+    return time_kernel(kernel, data.r[None], alpha, ell=ell, xp=xp) + JITTER * alpha * xp.eye(T)
 
 
 def weight_prior(params: dict, data: BoundData, xp=jnp):
@@ -91,14 +91,14 @@ def weight_prior(params: dict, data: BoundData, xp=jnp):
     m = xp.asarray(data.mask)
     both = m[:, :, None] * m[:, None, :]
     eye = xp.eye(data.mask.shape[1])
-    K = weight_kernel(data.d2, alpha, gamma, xp) * both
+    K = weight_kernel(data.d2, alpha, gamma, xp=xp) * both
     return K + eta * alpha * eye * m[:, :, None] + eye * (1.0 - m[:, :, None])
 
 
-def posterior(params: dict, data: BoundData, kernel: str, xp=jnp, priors: tuple | None = None) -> dict:
+def posterior(params: dict, data: BoundData, kernel: str, *, xp=jnp, priors: tuple | None = None) -> dict:
     """Means and covariance summaries of Q, and the two KL divergences; ``priors``, the
     prior covariances ``(A, B)`` of ``params`` if already computed."""
-    A, B = priors or (mp_prior(params, data, kernel, xp), weight_prior(params, data, xp))
+    A, B = priors or (mp_prior(params, data, kernel, xp=xp), weight_prior(params, data, xp))
     T = data.mu.shape[1]
     m = data.mu + xp.einsum("stu,su->st", xp.linalg.cholesky(A), params["u"])
     d = xp.exp(params["log_d"])[:, None, None]
@@ -115,14 +115,14 @@ def posterior(params: dict, data: BoundData, kernel: str, xp=jnp, priors: tuple 
     mask = xp.asarray(data.mask)
     v, c = params["v"], xp.exp(params["log_c"])
     # EM's priors come factorised per kernel shape (shared_kernels.WeightKernels), the rest dense
-    weight_terms = B.bound_terms(c, v) if hasattr(B, "bound_terms") else _weight_diagonals(B, c, v, data.groups, xp)
+    weight_terms = B.bound_terms(c, v) if hasattr(B, "bound_terms") else weight_diagonals(B, c, v, groups=data.groups, xp=xp)
     whitened, omega, PB_inv_diagonal, log_det_parts = weight_terms
     w = params["chi"][..., None] + whitened
     kl_w = 0.5 * xp.sum(mask * (PB_inv_diagonal + v**2 - 1.0 + log_det_parts))
     return {"m": m, "tr_sigma": tr_sigma, "w": w, "omega": omega, "kl_mp": kl_mp, "kl_w": kl_w}
 
 
-def _weight_diagonals(B, c, v, groups, xp=jnp):
+def weight_diagonals(B, c, v, *, groups, xp=jnp):
     """What the bound takes of the weight posteriors, per slot (I, S, G, N), each type's
     block at its own size (:mod:`~cocomopl.primitives.slot_algebra`): ``chol(B) v``, the
     diagonals of ``Omega = B (I + cB)^-1`` and of ``(I + cB)^-1``, and twice the log-diagonal
@@ -136,20 +136,20 @@ def _weight_diagonals(B, c, v, groups, xp=jnp):
     for n, idx in groups:
         B_g = B[..., idx, :n, :n]
         at = (..., idx, slice(None, n))
-        whitened = slot_algebra.put(whitened, at, xp.einsum("isgnj,isgj->isgn", xp.linalg.cholesky(B_g), v[at]), xp)
+        whitened = slot_algebra.put(whitened, at, xp.einsum("isgnj,isgj->isgn", xp.linalg.cholesky(B_g), v[at]), xp=xp)
         L_P = xp.linalg.cholesky(xp.eye(n) + c[:, :, None, None, None] * B_g)
         L_P_inv = xp.linalg.inv(L_P)
         P_inv = xp.swapaxes(L_P_inv, -1, -2) @ L_P_inv
-        omega = slot_algebra.put(omega, at, xp.einsum("isgnj,isgjn->isgn", B_g, P_inv), xp)
-        P_inv_diagonal = slot_algebra.put(P_inv_diagonal, at, xp.diagonal(P_inv, axis1=-2, axis2=-1), xp)
-        log_det_parts = slot_algebra.put(log_det_parts, at, 2.0 * xp.log(xp.diagonal(L_P, axis1=-2, axis2=-1)), xp)
+        omega = slot_algebra.put(omega, at, xp.einsum("isgnj,isgjn->isgn", B_g, P_inv), xp=xp)
+        P_inv_diagonal = slot_algebra.put(P_inv_diagonal, at, xp.diagonal(P_inv, axis1=-2, axis2=-1), xp=xp)
+        log_det_parts = slot_algebra.put(log_det_parts, at, 2.0 * xp.log(xp.diagonal(L_P, axis1=-2, axis2=-1)), xp=xp)
     return whitened, omega, P_inv_diagonal, log_det_parts
 
 
-def free_energy(params: dict, data: BoundData, kernel: str, xp=jnp, priors: tuple | None = None):
+def free_energy(params: dict, data: BoundData, kernel: str, *, xp=jnp, priors: tuple | None = None):
     """The bound L of eq. (6): expected log-likelihood minus KL(Q || prior); ``priors`` as
     for :func:`posterior`."""
-    q = posterior(params, data, kernel, xp, priors)
+    q = posterior(params, data, kernel, xp=xp, priors=priors)
     m, w, omega = q["m"], q["w"], q["omega"]
     mask = xp.asarray(data.mask)
     T = data.r.shape[0]

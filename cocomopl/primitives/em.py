@@ -51,14 +51,15 @@ def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray) -> np.ndar
     return np.linalg.solve(np.eye(K.shape[-1]) + scale[..., None, None] * K, rhs)
 
 
-def priors(hyper: dict, data: BoundData, kernel: str, cache: ShapeCache) -> tuple[np.ndarray, WeightKernels]:
+def priors(hyper: dict, data: BoundData, kernel: str, *, cache: ShapeCache) -> tuple[np.ndarray, WeightKernels]:
     """The prior covariances of the hyperparameters ``hyper``: the MPs' ``A`` (S, T, T) and
     the weight GPs', their shapes factorised once in ``cache``."""
-    A = mp_prior(hyper, data, kernel, np)
-    return A, WeightKernels(cache, *(np.exp(hyper[k]) for k in ("log_alpha_w", "log_gamma_w", "log_eta_w")))
+    A = mp_prior(hyper, data, kernel, xp=np)
+    alpha, gamma, eta = (np.exp(hyper[k]) for k in ("log_alpha_w", "log_gamma_w", "log_eta_w"))
+    return A, WeightKernels(cache, alpha, gamma, eta=eta)
 
 
-def e_step(q: dict, A: np.ndarray, B: WeightKernels, data: BoundData) -> dict:
+def e_step(q: dict, A: np.ndarray, B: WeightKernels, *, data: BoundData) -> dict:
     """One sweep over the primitives: ``Q(MP_s)``, then ``Q(W_is)`` of every signal, each set
     to its optimum given the rest.  ``q`` also gets the precisions the posteriors were
     computed with, ``d`` (S,) and ``c`` (I, S): ``Sigma_s = (A_s^-1 + d_s I)^-1`` and
@@ -146,7 +147,7 @@ def _best_kernels(grid: tuple, current: tuple, moment: np.ndarray, n: float, log
 def _time_kernels(kernel: str, r: np.ndarray, ell: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverses, flattened (..., T T), and log-determinants (...) of the unit-amplitude time
     kernels ``K(ell) + JITTER I`` of widths ``ell`` (...)."""
-    K = time_kernel(kernel, r, 1.0, ell[..., None, None], np)
+    K = time_kernel(kernel, r, 1.0, ell=ell[..., None, None], xp=np)
     inverse, log_det = _inverse_and_log_det(K + JITTER * np.eye(len(r)))
     return inverse.reshape(*inverse.shape[:-2], -1), log_det
 
@@ -189,7 +190,7 @@ def kernel_grids(data: BoundData, kernel: str) -> dict:
             "weight": ((gammas, etas), *_weight_kernels(data, gammas, etas))}
 
 
-def m_step(q: dict, hyper: dict, data: BoundData, kernel: str, grids: dict | None = None) -> dict:
+def m_step(q: dict, hyper: dict, data: BoundData, *, kernel: str, grids: dict | None = None) -> dict:
     """The kernel hyperparameters at their best, the posteriors held: per kernel the width
     (and for the weight kernels the nugget) from a log-spaced grid (:func:`kernel_grids`,
     computed here unless given) or its current value (so the bound cannot fall), and the
@@ -216,7 +217,7 @@ def m_step(q: dict, hyper: dict, data: BoundData, kernel: str, grids: dict | Non
             "log_gamma_w": np.log(gamma), "log_eta_w": np.log(eta)}
 
 
-def as_parameters(q: dict, hyper: dict, A: np.ndarray, B: WeightKernels, data: BoundData) -> dict:
+def as_parameters(q: dict, hyper: dict, A: np.ndarray, *, B: WeightKernels, data: BoundData) -> dict:
     """The posterior after an E-step in :func:`~cocomopl.primitives.bound.free_energy`'s
     parametrisation: whitened means and the precisions ``d``, ``c``."""
     mask = data.mask
@@ -230,6 +231,7 @@ def maximise_bound_em(
     X_slots,
     mask,
     d2,
+    *,
     tau,
     S: int,
     kernel: str,
@@ -244,20 +246,20 @@ def maximise_bound_em(
 
     ``on_iteration``, if given, is called after every round with the bound reached.
     """
-    params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
+    params, data = initial_parameters(X_slots, mask, d2, tau=tau, S=S, signal_weights=signal_weights)
     hyper = {k: np.asarray(params[k], dtype=float) for k in HYPERPARAMETERS}
     cache = ShapeCache(data)
-    q = {**_posterior_start(params, *priors(hyper, data, kernel, cache), data), "chi": params["chi"],
+    q = {**posterior_start(params, *priors(hyper, data, kernel, cache=cache), data=data), "chi": params["chi"],
          "sigma2": np.exp(2.0 * params["log_sigma"])}
     grids = kernel_grids(data, kernel)
     bounds = []
     for _ in range(max(max_rounds, 1)):
         if bounds:
-            hyper = m_step(q, hyper, data, kernel, grids)
-        A, B = priors(hyper, data, kernel, cache)
-        q = means_and_noise(e_step(q, A, B, data), B, data)
-        params = as_parameters(q, hyper, A, B, data)
-        bounds.append(float(free_energy(params, data, kernel, np, (A, B))))
+            hyper = m_step(q, hyper, data, kernel=kernel, grids=grids)
+        A, B = priors(hyper, data, kernel, cache=cache)
+        q = means_and_noise(e_step(q, A, B, data=data), B, data)
+        params = as_parameters(q, hyper, A, B=B, data=data)
+        bounds.append(float(free_energy(params, data, kernel, xp=np, priors=(A, B))))
         if on_iteration is not None:
             on_iteration(bounds[-1])
         if len(bounds) > 1 and bounds[-1] - bounds[-2] < TOLERANCE:
@@ -272,7 +274,7 @@ def maximise_bound_em(
     }
 
 
-def _posterior_start(params: dict, A: np.ndarray, B: WeightKernels, data: BoundData) -> dict:
+def posterior_start(params: dict, A: np.ndarray, B: WeightKernels, *, data: BoundData) -> dict:
     """The PCA start as explicit posteriors: means and covariances, under the priors ``A`` and ``B``."""
     d = np.exp(params["log_d"])
     return {

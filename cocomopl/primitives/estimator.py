@@ -13,27 +13,28 @@ arrays the weight GPs need, so that a step costs a handful of small matrix produ
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 import inspect
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from tqdm import tqdm
 
-from cocomopl.errors import Error
+from cocomopl.errors import Error, require_extra
 from cocomopl.motion import StepSpec
 from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, TIME_KERNELS
 from cocomopl.primitives import durations as duration_gp
+from cocomopl.primitives.checks import Check, one_of, whole
 from cocomopl.primitives.training import (
     FOOTSTEP_PARAMETERS,
     TURN_SCALE,
     WIDTH_SCALE,
     TrainingSteps,
     learned_parts,
+    parameter_count,
     phase_templates,
     resample,
     resample_step,
-    parameter_count,
     step_lengths,
     step_type,
 )
@@ -42,6 +43,14 @@ SIGNAL_GROUPS = ("joints", "zmp", "pelvis")
 CONDITION_RATIO = 1e-6  # start-state noise relative to the predicted start variance: "nearly equal"
 VARIANCE_FLOOR = 1e-6  # relative to the prior: keeps conditioning defined at training points
 SAME_LENGTHS_M2 = 1e-12  # squared length distance (1 um) below which a step has a training step's lengths
+# The estimator's parameters that need a check (:meth:`MovementPrimitives.validate`); model
+# files check their recorded settings with the same rules.
+PARAMETER_CHECKS: dict[str, Check] = {
+    "n_primitives": whole(1),
+    "kernel": one_of(TIME_KERNELS),
+    "n_grid": whole(2),
+    "max_iterations": whole(1),
+}
 
 
 def signal_groups(names: list[str]) -> dict[str, np.ndarray]:
@@ -108,7 +117,7 @@ class PredictedStep:
     start : (I,) the signals the step's start was conditioned on (None: not conditioned)
     """
 
-    def __init__(self, spec, tau, parts, primitives, boundaries, durations, duration_std, distance, in_support,
+    def __init__(self, spec, tau, parts, *, primitives, boundaries, durations, duration_std, distance, in_support,
                  start=None):
         self.spec = spec
         self.tau = tau
@@ -141,8 +150,9 @@ class PredictedStep:
         """This step with its start conditioned on the signals ``start`` (I), the previous
         step's end: the initial joint angles and pelvis orientation then (nearly) equal them.
         The ZMP is not conditioned: it jumps at touchdown, in the OC data too."""
-        return PredictedStep(self.spec, self.tau, self._parts, self._primitives, self.boundaries, self.durations,
-                             self.duration_std, self.distance, self.in_support, np.asarray(start, dtype=float))
+        return PredictedStep(self.spec, self.tau, self._parts, primitives=self._primitives, boundaries=self.boundaries,
+                             durations=self.durations, duration_std=self.duration_std, distance=self.distance,
+                             in_support=self.in_support, start=np.asarray(start, dtype=float))
 
     @property
     def std(self) -> np.ndarray:
@@ -175,12 +185,12 @@ class PredictedStep:
             spec,
             tau,
             [part for p in parts for part in p._parts],
-            parts[0]._primitives,
-            boundaries,
-            np.concatenate([p.durations for p in parts]),
-            np.concatenate([p.duration_std for p in parts]),
-            max(p.distance for p in parts),
-            all(p.in_support for p in parts),
+            primitives=parts[0]._primitives,
+            boundaries=boundaries,
+            durations=np.concatenate([p.durations for p in parts]),
+            duration_std=np.concatenate([p.duration_std for p in parts]),
+            distance=max(p.distance for p in parts),
+            in_support=all(p.in_support for p in parts),
         )
 
 
@@ -197,6 +207,48 @@ def _signal_std(part: _Part, primitives: np.ndarray, primitive_var: np.ndarray, 
     return np.sqrt(np.maximum(variance, 0.0))
 
 
+@dataclass(frozen=True)
+class TypeArrays:
+    """What predicting steps of one learned trajectory type takes: contiguous slices of the
+    fitted arrays and the weight GPs' solves (:func:`_weight_solves`), so that predicting
+    a step costs a few small matrix products.
+
+    Attributes
+    ----------
+    lengths : (n, Z) step parameters of the type's n training steps
+    chi, alpha_w, gamma_w, nugget : (K,) the K = I*S weight GPs' type means, amplitudes,
+        inverse squared widths and nuggets ``alpha eta``
+    floor : (K,) variance added to a new step's weights, ``(VARIANCE_FLOOR + eta) alpha``: its nugget and a floor
+    conditioned : (I,) 1 for the signals conditioned on a step's start, 0 for the ZMP
+    basis, unique_gamma, beta, mean_blocks, spectral_blocks, block_index : :func:`_weight_solves`
+    boundaries : (P+1,) the type's phase boundaries on the normalised grid
+    support_radius : the largest distance from a training step to its nearest neighbour, m
+    dur_mean, dur_alpha, dur_gamma, dur_beta, dur_K_inv : the P log phase durations' GPs,
+        shaped for predicting several steps at once
+    """
+
+    lengths: np.ndarray
+    chi: np.ndarray
+    alpha_w: np.ndarray
+    gamma_w: np.ndarray
+    nugget: np.ndarray
+    floor: np.ndarray
+    conditioned: np.ndarray
+    basis: np.ndarray
+    unique_gamma: np.ndarray
+    beta: np.ndarray
+    mean_blocks: np.ndarray
+    spectral_blocks: np.ndarray
+    block_index: np.ndarray
+    boundaries: np.ndarray
+    support_radius: float
+    dur_mean: np.ndarray
+    dur_alpha: np.ndarray
+    dur_gamma: np.ndarray
+    dur_beta: np.ndarray
+    dur_K_inv: np.ndarray
+
+
 class MovementPrimitives:
     """Temporal movement primitives with GP priors, weights GP functions of the step parameters.
 
@@ -207,15 +259,47 @@ class MovementPrimitives:
     kernel : {"rbf", "matern32", "matern52"}
         Time kernel of the primitives' GP priors.
     n_grid : int
-        Points of the normalised time grid per step.
+        T, points of the normalised time grid per step.
     max_iterations : int
         The most EM rounds; the fit stops earlier once a round gains less than ``em.TOLERANCE``.
     verbose : bool
         Show the progress of :meth:`fit` on stderr: its iterations and the bound.
+
+    Attributes
+    ----------
+    Set by :meth:`fit` or by :func:`~cocomopl.primitives.model_file.load_model`; a model file
+    holds each array under its name without the trailing ``_``.  Axes: S primitives, T grid
+    points, I signals, G learned trajectory types, N training steps of a type at most (empty
+    slots padded), P phases and B = P + 1 phase boundaries of a type at most, Z step parameters.
+
+    tau_ : (T,) the normalised time grid
+    signal_names_ : (I,) the signals' names
+    unconditioned_ : (I,) the signals not conditioned on a step's start (the ZMP)
+    types_ : (G,) the learned trajectory types (step types, or parts of a step learned in parts)
+    lengths_ : (G, N, Z) the training steps' parameters (:func:`~cocomopl.primitives.training.step_lengths`)
+    mask_ : (G, N) 1 for a training step, 0 for an empty slot
+    boundaries_ : (G, B) each type's phase boundaries on the grid (NaN past its phases)
+    m_, m_var_, m_cov_start_ : (S, T) each primitive's posterior mean, variance, and covariance with its start
+    alpha_w_, gamma_w_, eta_w_ : (I, S) the weight kernels' amplitudes, inverse squared widths and nuggets
+    chi_ : (I, S, G) the weight GPs' type means
+    beta_ : (I, S, G, N) the weight GPs' prior covariances solved against their posterior means, less chi
+    c_w_ : (I, S) the weights' observation precisions
+    sigma_ : (I,) the signals' noise standard deviations
+    alpha_t_, ell_t_ : (S,) the time kernels' amplitudes and widths
+    n_phases_ : (G,) each type's number of phases
+    dur_mean_, dur_alpha_, dur_gamma_ : (G, P) the log phase durations' GPs: means, amplitudes, inverse squared widths
+    dur_beta_, dur_K_inv_ : (G, P, N), (G, P, N, N) their solves
+    support_radius_ : (G,) per type, the largest distance from a training step to its nearest neighbour, m
+    bound_ : the free energy reached, nats
+    n_iter_ : the EM rounds taken
+    fit_time_s_ : the fit's wall time, s
+    explained_variance_ : per signal group, of the learned trajectories as the model predicts them
+    metadata_ : a loaded model's file metadata (:func:`~cocomopl.primitives.model_file.load_model`)
     """
 
     def __init__(
         self,
+        *,
         n_primitives: int = 11,
         kernel: str = "rbf",
         n_grid: int = 100,
@@ -269,7 +353,17 @@ class MovementPrimitives:
 
     # ------------------------------------------------------------------ fit
     def fit(self, steps: TrainingSteps) -> MovementPrimitives:
-        """Learn primitives, weight GPs and duration GPs from training steps."""
+        """Learn primitives, weight GPs and duration GPs from training steps.
+
+        A fit replaces every fitted attribute and drops whatever was derived from the ones before.
+
+        Raises
+        ------
+        Error
+            If JAX, which fitting needs, is missing (the ``[train]`` extra), or the parameters
+            cannot be fitted to ``steps`` (:meth:`validate`).
+        """
+        require_extra("jax", "train", f"{type(self).__name__}.fit")
         from cocomopl.primitives import em  # JAX is needed to fit only
 
         self.validate(steps)
@@ -277,16 +371,16 @@ class MovementPrimitives:
         parts, types = learned_parts(steps)
         templates = phase_templates(parts, types)
         tau = np.linspace(0.0, 1.0, self.n_grid)
-        X = resample(parts, templates, tau, types)
-        layout = _SlotLayout(parts, types)
+        X = resample(parts, templates, tau, types=types)
+        layout = SlotLayout(parts, types)
         description = f"fitting {self.n_primitives} {self.kernel} primitives"
         with tqdm(total=self.max_iterations, desc=description, unit="round", disable=not self.verbose) as bar:
             result = em.maximise_bound_em(
-                layout.to_slots(X), layout.mask, layout.d2, tau, self.n_primitives, self.kernel, self.max_iterations,
-                pca_signal_weights(X, steps.signal_names),
+                layout.to_slots(X), layout.mask, layout.d2, tau=tau, S=self.n_primitives, kernel=self.kernel,
+                max_rounds=self.max_iterations, signal_weights=pca_signal_weights(X, steps.signal_names),
                 on_iteration=functools.partial(_show_iteration, bar) if self.verbose else None,
             )
-        self.state_ = {
+        fitted = {
             "tau": tau,
             "signal_names": np.array(steps.signal_names),
             "unconditioned": np.array([name.startswith("zmp_") for name in steps.signal_names]),
@@ -297,8 +391,9 @@ class MovementPrimitives:
             **result["arrays"],
             **_fit_durations(parts, layout),
         }
-        for cache in ("_cache", "_trajectories", "_moments", "_signal_names"):  # per-type lookups of a previous fit
-            self.__dict__.pop(cache, None)
+        self._forget_fit()
+        for name, value in fitted.items():
+            setattr(self, f"{name}_", value)
         self.bound_ = result["bound"]
         self.n_iter_ = result["iterations"]
         self.fit_time_s_ = time.perf_counter() - started
@@ -308,12 +403,21 @@ class MovementPrimitives:
         self.explained_variance_ = explained_variance(X, X_hat, steps.signal_names)
         return self
 
+    def _forget_fit(self) -> None:
+        """Drop every fitted attribute (a public name ending in ``_``) and every value a
+        :class:`functools.cached_property` derived from them, whatever their names."""
+        cached = {name for cls in type(self).__mro__ for name, value in vars(cls).items()
+                  if isinstance(value, functools.cached_property)}
+        for name in list(vars(self)):
+            if name in cached or (name.endswith("_") and not name.startswith("_")):
+                del self.__dict__[name]
+
     def validate(self, steps: TrainingSteps) -> None:
-        """Raise :class:`Error` if these settings cannot be fitted to ``steps``."""
-        if not isinstance(self.n_primitives, (int, np.integer)) or self.n_primitives < 1:
-            raise Error(f"the number of primitives must be a positive whole number, not {self.n_primitives!r}")
-        if self.kernel not in TIME_KERNELS:
-            raise Error(f"unknown kernel {self.kernel!r}; choose one of {', '.join(TIME_KERNELS)}")
+        """Raise :class:`Error` if these parameters cannot be fitted to ``steps``."""
+        for name, check in PARAMETER_CHECKS.items():
+            expected = check(getattr(self, name))
+            if expected:
+                raise Error(f"{name} must be {expected}, not {getattr(self, name)!r}")
         if self.n_primitives > self.n_grid:
             raise Error(f"{self.n_primitives} primitives cannot exceed the {self.n_grid} time-grid points")
         if len(steps) < 2:
@@ -322,13 +426,29 @@ class MovementPrimitives:
     # ------------------------------------------------------------------ predict
     @property
     def types(self) -> list[str]:
-        return [str(t) for t in self.state_["types"]]
+        """The learned trajectory types, ``types_`` as strings."""
+        return list(self._type_index)
+
+    @property
+    def signal_names(self) -> list[str]:
+        """The signals' names, ``signal_names_`` as strings."""
+        return list(self._signal_names)
+
+    @functools.cached_property
+    def _signal_names(self) -> tuple[str, ...]:
+        # kept: generation reads the names at every step
+        return tuple(str(n) for n in self.signal_names_)
+
+    @functools.cached_property
+    def _type_index(self) -> dict[str, int]:
+        """Each learned trajectory type's index along the G axis of the fitted arrays."""
+        return {str(t): g for g, t in enumerate(self.types_)}
 
     def footstep_range(self) -> dict[str, tuple[float, float]]:
         """(low, high) of the footsteps' ``length``, ``width`` (m) and ``turn`` (rad) that the
         training steps landed at (their start steps' footsteps): the range a plan may use."""
         self._check_fitted()
-        z = np.concatenate([self._type_arrays(t)["lengths"] for t in self.types if t.startswith("start_")])
+        z = np.concatenate([self.type_arrays(t).lengths for t in self.types if t.startswith("start_")])
         columns = {"length": z[:, 1]}
         if z.shape[1] == FOOTSTEP_PARAMETERS:
             columns |= {"width": z[:, 3] / WIDTH_SCALE, "turn": z[:, 5] / TURN_SCALE}
@@ -336,64 +456,64 @@ class MovementPrimitives:
             columns |= {"width": np.zeros(1), "turn": np.zeros(1)}
         return {key: (float(v.min()), float(v.max())) for key, v in columns.items()}
 
-    @property
-    def signal_names(self) -> list[str]:
-        if not hasattr(self, "_signal_names"):  # kept: generation reads it at every step
-            self._signal_names = [str(n) for n in self.state_["signal_names"]]
-        return list(self._signal_names)
-
     def _check_fitted(self) -> None:
-        if not hasattr(self, "state_"):
+        if not any(name.endswith("_") and not name.startswith("_") for name in vars(self)):
             raise Error("this model is not fitted yet: call fit() or load a model file")
 
-    def prepare(self) -> "MovementPrimitives":
+    def prepare(self) -> MovementPrimitives:
         """Precompute the per-type arrays prediction uses (otherwise done at each type's first use)."""
         self._check_fitted()
         for type_ in self.types:
-            self._type_arrays(type_)
+            self.type_arrays(type_)
         return self
 
+    @functools.cached_property
     def _primitive_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """What conditioning takes from the primitives (:func:`_condition`), built once."""
-        if not hasattr(self, "_moments"):
-            s = self.state_
-            taper = 0.5 * (1.0 + np.cos(np.pi * s["tau"]))[:, None]
-            self._moments = (s["m"][:, 0], np.vstack([s["m"], s["m_cov_start"]]), taper)
-        return self._moments
+        """What conditioning takes from the primitives (:func:`_condition`)."""
+        taper = 0.5 * (1.0 + np.cos(np.pi * self.tau_))[:, None]
+        return self.m_[:, 0], np.vstack([self.m_, self.m_cov_start_]), taper
 
-    def _type_arrays(self, type_: str) -> dict:
-        """Contiguous per-type slices of the state (built once), so predict is a few small products."""
-        if not hasattr(self, "_cache"):
-            self._cache = {}
-        if type_ not in self._cache:
-            s = self.state_
-            types = self.types
-            if type_ not in types:
-                return None
-            g = types.index(type_)
-            n = int(s["mask"][g].sum())
-            P = int(s["n_phases"][g])
-            self._cache[type_] = {
-                "lengths": np.ascontiguousarray(s["lengths"][g, :n]),
-                "chi": s["chi"][:, :, g].ravel(),
-                **_weight_solves(s["lengths"][g, :n], s["alpha_w"].ravel(), s["gamma_w"].ravel(),
-                                 (s["eta_w"] + 1.0 / (s["alpha_w"] * s["c_w"])).ravel(),
-                                 s["beta"][:, :, g, :n].reshape(-1, n)),
-                "boundaries": s["boundaries"][g, : P + 1],
-                "support_radius": float(s["support_radius"][g]),
-                "dur_mean": s["dur_mean"][g, :P],
-                "dur_alpha": s["dur_alpha"][g, :P, None],
-                "dur_gamma": s["dur_gamma"][g, :P, None],
-                "dur_beta": np.ascontiguousarray(s["dur_beta"][g, :P, :n]),
-                "dur_K_inv": np.ascontiguousarray(s["dur_K_inv"][g, :P, :n, :n]),
-                "alpha_w": s["alpha_w"].ravel(),
-                "gamma_w": s["gamma_w"].ravel(),
-                "nugget": s["alpha_w"].ravel() * s["eta_w"].ravel(),
+    @functools.cached_property
+    def _type_arrays(self) -> dict[str, TypeArrays]:
+        """:meth:`type_arrays` of the types used so far, each built at its first use."""
+        return {}
+
+    def type_arrays(self, type_: str) -> TypeArrays:
+        """What predicting steps of the learned trajectory type ``type_`` takes (built once).
+
+        Raises
+        ------
+        Error
+            If the model has not learned ``type_``.
+        """
+        if type_ not in self._type_arrays:
+            if type_ not in self._type_index:
+                raise Error(f"the model has no trajectory type {type_!r}; it has {', '.join(self.types)}")
+            g = self._type_index[type_]
+            n = int(self.mask_[g].sum())
+            P = int(self.n_phases_[g])
+            alpha, eta = self.alpha_w_.ravel(), self.eta_w_.ravel()
+            self._type_arrays[type_] = TypeArrays(
+                lengths=np.ascontiguousarray(self.lengths_[g, :n]),
+                chi=self.chi_[:, :, g].ravel(),
+                alpha_w=alpha,
+                gamma_w=self.gamma_w_.ravel(),
+                nugget=alpha * eta,
                 # a new step's weights vary about the smooth function by the nugget too
-                "floor": (VARIANCE_FLOOR + s["eta_w"].ravel()) * s["alpha_w"].ravel(),
-                "conditioned": (~s["unconditioned"]).astype(float),
-            }
-        return self._cache[type_]
+                floor=(VARIANCE_FLOOR + eta) * alpha,
+                conditioned=(~self.unconditioned_).astype(float),
+                **_weight_solves(self.lengths_[g, :n], alpha, self.gamma_w_.ravel(),
+                                 nu=(self.eta_w_ + 1.0 / (self.alpha_w_ * self.c_w_)).ravel(),
+                                 beta=self.beta_[:, :, g, :n].reshape(-1, n)),
+                boundaries=self.boundaries_[g, : P + 1],
+                support_radius=float(self.support_radius_[g]),
+                dur_mean=self.dur_mean_[g, :P],
+                dur_alpha=self.dur_alpha_[g, :P, None],
+                dur_gamma=self.dur_gamma_[g, :P, None],
+                dur_beta=np.ascontiguousarray(self.dur_beta_[g, :P, :n]),
+                dur_K_inv=np.ascontiguousarray(self.dur_K_inv_[g, :P, :n, :n]),
+            )
+        return self._type_arrays[type_]
 
     def predict(self, spec: StepSpec, start: np.ndarray | None = None) -> PredictedStep:
         """Posterior mean and uncertainty of a step.
@@ -415,7 +535,7 @@ class MovementPrimitives:
         (unmodified) :class:`PredictedStep` is returned for each."""
         self._check_fitted()
         unique = list(dict.fromkeys(specs))
-        trajectories = [self._trajectory_types(step_type(spec)) for spec in unique]
+        trajectories = [self.trajectory_types(step_type(spec)) for spec in unique]
         for spec, types in zip(unique, trajectories):
             if not types:
                 raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
@@ -428,54 +548,50 @@ class MovementPrimitives:
                  for k, (spec, types) in enumerate(zip(unique, trajectories))}
         return [steps[spec] for spec in specs]
 
-    def _trajectory_types(self, type_: str) -> list[str]:
-        """The learned trajectory types a step type is predicted from: itself, or its parts
-        in order (none if the model has neither); looked up once per type."""
-        if not hasattr(self, "_trajectories"):
-            self._trajectories = {}
-        if type_ not in self._trajectories:
-            types = self.types
-            parts = sorted(t for t in types if t.startswith(f"{type_}_part"))
-            self._trajectories[type_] = [type_] if type_ in types else parts
-        return self._trajectories[type_]
+    def trajectory_types(self, name: str) -> list[str]:
+        """The learned trajectory types the step type ``name`` (:func:`~cocomopl.primitives.training.step_type`)
+        is predicted from: itself, or its parts in order (none if the model has neither)."""
+        if name in self._type_index:
+            return [name]
+        return sorted(t for t in self._type_index if t.startswith(f"{name}_part"))
 
     def _predict_type(self, type_: str, specs: list[StepSpec]) -> list[PredictedStep]:
         """:meth:`predict_many` for steps of one learned trajectory type (a step type, or a part of one)."""
-        c = self._type_arrays(type_)
-        z = np.array([step_lengths(spec, c["lengths"].shape[1]) for spec in specs])
-        d2 = ((c["lengths"] - z[:, None]) ** 2).sum(axis=-1)  # (steps, n)
-        w, var = _weight_posterior(c, d2)
-        shape = (len(specs), *self.state_["alpha_w"].shape)
-        w, var = w.reshape(shape), (np.maximum(var, 0.0) + c["floor"]).reshape(shape)
-        mean = (w @ self.state_["m"]).swapaxes(1, 2)
-        gain, cross, observed = _condition(w, var, self._primitive_moments(), c["conditioned"])
-        k = c["dur_alpha"][:, None] * np.exp(-c["dur_gamma"][:, None] * d2)  # (P, steps, n)
-        durations = np.exp(c["dur_mean"] + (k * c["dur_beta"][:, None]).sum(axis=-1).T)
-        log_var = c["dur_alpha"][:, 0] - ((k @ c["dur_K_inv"]) * k).sum(axis=-1).T
+        c = self.type_arrays(type_)
+        z = np.array([step_lengths(spec, c.lengths.shape[1]) for spec in specs])
+        d2 = ((c.lengths - z[:, None]) ** 2).sum(axis=-1)  # (steps, n)
+        w, var = weight_posterior(c, d2)
+        shape = (len(specs), *self.alpha_w_.shape)
+        w, var = w.reshape(shape), (np.maximum(var, 0.0) + c.floor).reshape(shape)
+        mean = (w @ self.m_).swapaxes(1, 2)
+        gain, cross, observed = _condition(w, var, self._primitive_moments, c.conditioned)
+        k = c.dur_alpha[:, None] * np.exp(-c.dur_gamma[:, None] * d2)  # (P, steps, n)
+        durations = np.exp(c.dur_mean + (k * c.dur_beta[:, None]).sum(axis=-1).T)
+        log_var = c.dur_alpha[:, 0] - ((k @ c.dur_K_inv) * k).sum(axis=-1).T
         duration_std = durations * np.sqrt(np.maximum(log_var, 0.0))
         distance = np.sqrt(d2.min(axis=1))
-        primitives = (self.state_["m"], self.state_["m_var"])
+        primitives = (self.m_, self.m_var_)
         return [
-            PredictedStep(spec, self.state_["tau"], [_Part(mean[q], w[q], var[q], gain[q], cross[q], observed[q])],
-                          primitives, c["boundaries"], durations[q], duration_std[q], float(distance[q]),
-                          bool(distance[q] <= c["support_radius"] + 1e-9))
+            PredictedStep(spec, self.tau_, [_Part(mean[q], w[q], var[q], gain[q], cross[q], observed[q])],
+                          primitives=primitives, boundaries=c.boundaries, durations=durations[q],
+                          duration_std=duration_std[q], distance=float(distance[q]),
+                          in_support=bool(distance[q] <= c.support_radius + 1e-9))
             for q, spec in enumerate(specs)
         ]
 
     # ------------------------------------------------------------------ score
     def reconstruct(self, steps: TrainingSteps) -> tuple[np.ndarray, np.ndarray]:
         """Signals of ``steps`` and the model's predictions of them, (K, I, T) each, on the
-        grid ``tau`` with the phase boundaries of each prediction (a step learned in parts
+        grid ``tau_`` with the phase boundaries of each prediction (a step learned in parts
         is compared whole)."""
         self._check_fitted()
         if list(steps.signal_names) != self.signal_names:
             raise Error("these steps have different signals from the model's")
-        tau = self.state_["tau"]
         X, X_hat = [], []
         for spec, values, phase_time in zip(steps.specs, steps.values, steps.phase_time):
             step = self.predict(spec)
-            X.append(resample_step(values, phase_time, step.boundaries, tau))
-            X_hat.append(step.values_at(tau).T)
+            X.append(resample_step(values, phase_time, step.boundaries, tau=self.tau_))
+            X_hat.append(step.values_at(self.tau_).T)
         return np.stack(X), np.stack(X_hat)
 
     def score(self, steps: TrainingSteps) -> float:
@@ -484,7 +600,7 @@ class MovementPrimitives:
         return _fraction_explained(X, X_hat, slice(None))
 
 
-def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, nu: np.ndarray, beta: np.ndarray) -> dict:
+def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, *, nu: np.ndarray, beta: np.ndarray) -> dict:
     """The weight GPs' solves of one type, laid out so that predicting the K weights of several
     steps costs a few matrix products.
 
@@ -496,7 +612,7 @@ def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, nu
     c_k)``: a quadratic form costs O(n), not O(n^2).  The K weights share a few distinct
     ``gamma`` (13 for 396 weights in the bundled omnidirectional model): one eigenbasis each.
 
-    Returns ``basis`` (G, n, n), ``unique_gamma`` (G,), ``nu`` (K,) and ``beta`` (K, n), and
+    Returns the :class:`TypeArrays` fields ``basis`` (G, n, n), ``unique_gamma`` (G,) and ``beta`` (K, n), and
     the weights grouped by their ``gamma`` for batched products: ``mean_blocks`` ``alpha_k
     beta_k`` and ``spectral_blocks`` ``1 / (lambda_j + nu_k)``, (G, n, M) each for groups of
     at most M weights (zero-padded), and ``block_index`` (K,), each weight's column in the
@@ -512,11 +628,11 @@ def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, nu
     mean_blocks, spectral_blocks = np.zeros((G, n, M)), np.zeros((G, n, M))
     mean_blocks[gamma_of, :, rank] = alpha[:, None] * beta
     spectral_blocks[gamma_of, :, rank] = 1.0 / (eigenvalues[gamma_of] + nu[:, None])
-    return {"basis": basis, "unique_gamma": unique_gamma, "nu": nu, "beta": beta, "mean_blocks": mean_blocks,
+    return {"basis": basis, "unique_gamma": unique_gamma, "beta": beta, "mean_blocks": mean_blocks,
             "spectral_blocks": spectral_blocks, "block_index": gamma_of * M + rank}
 
 
-def _weight_posterior(c: dict, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Posterior mean and variance (steps, K) of all K = I*S weights of one type at once, at
     squared distances ``d2`` (steps, n) from its training steps.
 
@@ -527,21 +643,21 @@ def _weight_posterior(c: dict, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     :func:`_weight_solves`: ``sum_j (u_j^T b_k)^2 / (alpha_k (lambda_j + nu_k))``, with
     ``u_j^T b_k = alpha_k p_j + nugget_k q_j``, ``p = U^T E(z)`` and ``q = U^T [d2 = 0]``.
     """
-    alpha, nugget = c["alpha_w"], c["nugget"]
-    smooth = np.exp(-c["unique_gamma"][:, None, None] * d2)  # E(z), (G, steps, n)
-    p = smooth @ c["basis"]
+    alpha, nugget = c.alpha_w, c.nugget
+    smooth = np.exp(-c.unique_gamma[:, None, None] * d2)  # E(z), (G, steps, n)
+    p = smooth @ c.basis
 
-    def per_weight(x: np.ndarray, blocks: str) -> np.ndarray:
+    def per_weight(x: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """(G, rows, n) vectors, each group's multiplied by its weights' block: (rows, K)."""
-        return (x @ c[blocks]).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, c["block_index"]]
+        return (x @ blocks).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, c.block_index]
 
-    mean = c["chi"] + per_weight(smooth, "mean_blocks")
+    mean = c.chi + per_weight(smooth, c.mean_blocks)
     same = (d2 < SAME_LENGTHS_M2).astype(float)
     if not same.any():
-        return mean, alpha - alpha * per_weight(p**2, "spectral_blocks")
-    q = same @ c["basis"]
-    mean += nugget * (same @ c["beta"].T)
-    pp, pq, qq = per_weight(np.concatenate([p**2, p * q, q**2], axis=1), "spectral_blocks").reshape(3, len(d2), -1)
+        return mean, alpha - alpha * per_weight(p**2, c.spectral_blocks)
+    q = same @ c.basis
+    mean += nugget * (same @ c.beta.T)
+    pp, pq, qq = per_weight(np.concatenate([p**2, p * q, q**2], axis=1), c.spectral_blocks).reshape(3, len(d2), -1)
     return mean, alpha - alpha * pp - 2.0 * nugget * pq - nugget**2 / alpha * qq
 
 
@@ -570,7 +686,7 @@ def _condition(w, var, moments, conditioned) -> tuple[np.ndarray, np.ndarray, np
     end is the footstep's, and the variance falls by ``2 g Cov - g^2 Var(x_i(0))`` for
     the gain ``g`` actually used.
 
-    ``moments`` is ``(h, primitives, taper)`` (:meth:`MovementPrimitives._primitive_moments`):
+    ``moments`` is ``(h, primitives, taper)`` (``MovementPrimitives._primitive_moments``):
     the primitives' start values ``h`` (S,), their means over their covariance with the
     start stacked, (2S, T), and the taper (T, 1).
 
@@ -589,8 +705,11 @@ def _condition(w, var, moments, conditioned) -> tuple[np.ndarray, np.ndarray, np
     return cross * (conditioned / observed)[..., None, :] * taper, cross, observed
 
 
-class _SlotLayout:
-    """Steps arranged by type: ``slots[g]`` lists the step indices of type ``types[g]``."""
+class SlotLayout:
+    """Steps arranged by type, as the bound takes them (:mod:`~cocomopl.primitives.bound`):
+    ``slots[g]`` lists the step indices of type ``types[g]``, padded to N slots by ``mask``
+    (G, N); ``lengths`` (G, N, Z) are the steps' parameters and ``d2`` (G, N, N) their squared
+    distances within each type."""
 
     def __init__(self, steps: TrainingSteps, types: list[str]):
         self.types = sorted(set(types))
@@ -606,12 +725,14 @@ class _SlotLayout:
         self.n_steps = len(steps)
 
     def to_slots(self, X: np.ndarray) -> np.ndarray:
+        """Per-step arrays (K, ...) in slots (G, N, ...), zeros in the empty ones."""
         out = np.zeros((*self.mask.shape, *X.shape[1:]))
         for g, ks in enumerate(self.slots):
             out[g, : len(ks)] = X[ks]
         return out
 
     def from_slots(self, X_slots: np.ndarray) -> np.ndarray:
+        """Slotted arrays (G, N, ...) back to per-step ones (K, ...), in the steps' order."""
         out = np.empty((self.n_steps, *X_slots.shape[2:]))
         for g, ks in enumerate(self.slots):
             out[ks] = X_slots[g, : len(ks)]
@@ -634,7 +755,7 @@ def _pad_boundaries(boundaries: list[np.ndarray]) -> np.ndarray:
     return out
 
 
-def _fit_durations(steps: TrainingSteps, layout: _SlotLayout) -> dict:
+def _fit_durations(steps: TrainingSteps, layout: SlotLayout) -> dict:
     """GP regressions of the log phase durations per type, in slot layout."""
     G, N = layout.mask.shape
     P = max(len(d) for d in steps.durations)

@@ -16,6 +16,8 @@ branches: the interpolation error shows it without any model.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from cocomopl.dataset.signals import training_signals
@@ -32,7 +34,7 @@ KINDS = ("cyclic", "start", "stop")
 def probe_lengths(lengths: list[float]) -> list[float]:
     """The midpoints between consecutive trained lengths (m)."""
     lengths = sorted(set(lengths))
-    return [round((a + b) / 2, 6) for a, b in zip(lengths[:-1], lengths[1:])]
+    return [round((a + b) / 2, 6) for a, b in itertools.pairwise(lengths)]
 
 
 def signal_group_indices(robot: Robot, names: list[str]) -> dict[str, np.ndarray]:
@@ -54,7 +56,7 @@ def probe_steps(robot: Robot, motions: dict[StepSpec, Motion], source: dict) -> 
                          signals[0]["names"], source)
 
 
-def _bracket(spec: StepSpec, training: TrainingSteps) -> tuple[int, int, float]:
+def bracket(spec: StepSpec, training: TrainingSteps) -> tuple[int, int, float]:
     """Indices of the two trained steps of ``spec``'s type that bracket it in length, and the
     weight of the upper one."""
     varying = 1 if spec.kind == "start" else 0  # a start varies in its end length, the others in their start
@@ -69,16 +71,16 @@ def _bracket(spec: StepSpec, training: TrainingSteps) -> tuple[int, int, float]:
     return at[a], at[b], (length - a) / (b - a)
 
 
-def family_errors(model: MovementPrimitives, probes: TrainingSteps, training: TrainingSteps,
+def family_errors(model: MovementPrimitives, probes: TrainingSteps, training: TrainingSteps, *,
                   groups: dict[str, np.ndarray]) -> dict:
     """Per step kind and over all probes: RMS error per group of the model's prediction and
     of the linear interpolation of the bracketing trained steps."""
     squared = {"model": [], "linear": []}
     for spec, values, phase_time in zip(probes.specs, probes.values, probes.phase_time):
         step = model.predict(spec)
-        truth = resample_step(values, phase_time, step.boundaries, step.tau)
-        lower, upper, weight = _bracket(spec, training)
-        linear = sum(w * resample_step(training.values[k], training.phase_time[k], step.boundaries, step.tau)
+        truth = resample_step(values, phase_time, step.boundaries, tau=step.tau)
+        lower, upper, weight = bracket(spec, training)
+        linear = sum(w * resample_step(training.values[k], training.phase_time[k], step.boundaries, tau=step.tau)
                      for k, w in ((lower, 1.0 - weight), (upper, weight)))
         for name, estimate in (("model", step.values_at(step.tau).T), ("linear", linear)):
             squared[name].append({g: float(((truth - estimate)[idx] ** 2).mean()) for g, idx in groups.items()})

@@ -28,7 +28,9 @@ from cocomopl.primitives.training import step_lengths, step_type
 
 GRID_M = 0.01  # candidate lengths lie on this grid, strictly between the trained ones
 MAX_BUDGET = 20  # lengths one run adds: each brings 7 OCPs (three steps, four transitions)
-WARM_STARTS = ("model", "neighbour")  # what a new length's warm-up walk starts from (cocomopl.jobs.grow_dataset)
+# what a new length's warm-up walk starts from (cocomopl.jobs.grow_dataset); refinement's warm
+# starts are another choice, cocomopl.ocp.settings.WARM_STARTS
+GROWTH_WARM_STARTS = ("model", "neighbour")
 
 
 def length_steps_of(length: float) -> list[StepSpec]:
@@ -51,7 +53,7 @@ def _kernel(d2: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, nugget: np.nda
     return alpha.reshape(shape) * np.exp(-gamma.reshape(shape) * d2) + nugget.reshape(shape) * (d2 < SAME_LENGTHS_M2)
 
 
-def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, z: np.ndarray) -> np.ndarray:
+def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, *, z: np.ndarray) -> np.ndarray:
     """Posterior variance (I, S) of the weights of trajectory type ``type_`` at lengths ``z``
     (its step parameters), had the type's training inputs been the trained ones plus ``added`` (n, parameters).
 
@@ -59,32 +61,32 @@ def weight_variance(model: MovementPrimitives, type_: str, added: np.ndarray, z:
     noise of its own per (signal, primitive) (``Omega = (B^-1 + c I)^-1``); a new step is
     observed with the same noise ``1 / c``.
     """
-    arrays = model._type_arrays(type_)
-    alpha, gamma, nugget = arrays["alpha_w"], arrays["gamma_w"], arrays["nugget"]
-    trained = arrays["lengths"]
-    noise = 1.0 / model.state_["c_w"].ravel()
+    arrays = model.type_arrays(type_)
+    alpha, gamma, nugget = arrays.alpha_w, arrays.gamma_w, arrays.nugget
+    trained = arrays.lengths
+    noise = 1.0 / model.c_w_.ravel()
     inputs = np.vstack([trained, added.reshape(-1, trained.shape[1])])
     K = _kernel(((inputs[:, None] - inputs[None]) ** 2).sum(-1), alpha, gamma, nugget)
     K += noise[:, None, None] * np.eye(len(inputs))
     b = _kernel(((inputs - z) ** 2).sum(-1), alpha, gamma, nugget)  # (K, n)
     var = alpha - np.einsum("kn,kn->k", b, np.linalg.solve(K, b[..., None])[..., 0])
-    return np.maximum(var, 0.0).reshape(model.state_["alpha_w"].shape)
+    return np.maximum(var, 0.0).reshape(model.alpha_w_.shape)
 
 
 def variance_left(model: MovementPrimitives, length: float, added: list[float]) -> float:
     """The score of ``length`` (see the module) given the lengths ``added`` to the trained ones."""
-    energy = (model.state_["m"] ** 2).sum(axis=1)  # |MP_s|^2 over the grid, (S,)
-    prior = model.state_["alpha_w"] @ energy  # (I,)
-    fractions, count = [], model.state_["lengths"].shape[-1]
+    energy = (model.m_**2).sum(axis=1)  # |MP_s|^2 over the grid, (S,)
+    prior = model.alpha_w_ @ energy  # (I,)
+    fractions, count = [], model.lengths_.shape[-1]
     for spec in length_steps_of(length):
         new_inputs = np.array([step_lengths(s, count) for L in added for s in length_steps_of(L) if s.kind == spec.kind])
-        for type_ in model._trajectory_types(step_type(spec)):
-            var = weight_variance(model, type_, new_inputs, step_lengths(spec, count))
+        for type_ in model.trajectory_types(step_type(spec)):
+            var = weight_variance(model, type_, new_inputs, z=step_lengths(spec, count))
             fractions.append(np.mean(var @ energy / prior))
     return float(np.mean(fractions))
 
 
-def pick_uncertain(model: MovementPrimitives, trained: list[float], budget: int,
+def pick_uncertain(model: MovementPrimitives, trained: list[float], budget: int, *,
                    exclude: list[float] = ()) -> list[tuple[float, float]]:
     """The ``budget`` candidate lengths (m) of most variance left, picked greedily, each with
     its score when it was picked."""

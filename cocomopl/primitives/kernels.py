@@ -20,7 +20,7 @@ import jax.numpy as jnp
 from cocomopl.primitives import TIME_KERNELS
 
 
-def time_kernel(name: str, r, alpha, ell, xp=jnp):
+def time_kernel(name: str, r, alpha, *, ell, xp=jnp):
     """Kernel matrix for distances ``r`` (..., T, T), amplitude ``alpha`` and length ``ell`` (broadcast)."""
     x = r / ell
     if name == "rbf":
@@ -34,6 +34,6 @@ def time_kernel(name: str, r, alpha, ell, xp=jnp):
     raise ValueError(f"unknown time kernel {name!r}; choose one of {TIME_KERNELS}")
 
 
-def weight_kernel(d2, alpha, gamma, xp=jnp):
+def weight_kernel(d2, alpha, gamma, *, xp=jnp):
     """Eq. (5) within one step type: ``alpha exp(-gamma |z|^2)`` for squared length distances ``d2``."""
     return alpha * xp.exp(-gamma * d2)

@@ -1,6 +1,7 @@
 """Model files: a fitted :class:`MovementPrimitives` as an NPZ archive, read without unpickling.
 
-The archive holds every array of ``model.state_`` and one more, ``__metadata__``: a JSON
+The archive holds every fitted array of the model, each named as its attribute without the
+trailing ``_`` (``m`` for ``model.m_``), and one more, ``__metadata__``: a JSON
 string with the format name and version, the model's settings and fit results, a SHA-256
 checksum of the arrays and whatever the caller adds (command, versions, date, ...).
 
@@ -32,8 +33,14 @@ from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, phase_plan
 from cocomopl.motion import STEP_KINDS, StepSpec
 from cocomopl.motion_file import atomic_path
-from cocomopl.primitives import TIME_KERNELS
-from cocomopl.primitives.estimator import SIGNAL_GROUPS, MovementPrimitives, PredictedStep, signal_groups
+from cocomopl.primitives.checks import whole
+from cocomopl.primitives.estimator import (
+    PARAMETER_CHECKS,
+    SIGNAL_GROUPS,
+    MovementPrimitives,
+    PredictedStep,
+    signal_groups,
+)
 from cocomopl.primitives.training import (
     FOOTSTEP_PARAMETERS,
     STRAIGHT_PARAMETERS,
@@ -67,14 +74,15 @@ _AXES = {
     "B": "phase boundaries per type at most",
     "Z": "step parameters (start and end length; with footsteps their widths and turns too)",
 }
-# Every array of a fitted model's ``state_`` (prediction reads all but sigma, alpha_t and
-# ell_t, which describe the fit): its dtype kind, its axes (letters of _AXES) and the sign
-# its values must have: kernel amplitudes, widths and noise levels positive; distances and
-# the duration amplitudes (0 where a type has fewer phases) at least zero; step lengths at
-# least zero in a model of straight steps (``_check_step_parameters``).
-# ``m_var`` and ``m_cov_start`` have none: they are computed (co)variances, round-off may leave an
-# entry slightly below zero, and prediction clips what it derives from them.
-_ARRAYS = {
+# Every fitted array of a model, by its attribute's name less the trailing ``_`` (prediction
+# reads all but sigma, alpha_t and ell_t, which describe the fit): its dtype kind, its axes
+# (letters of _AXES) and the sign its values must have: kernel amplitudes, widths and noise
+# levels positive; distances and the duration amplitudes (0 where a type has fewer phases)
+# at least zero; step lengths at least zero in a model of straight steps
+# (``_check_step_parameters``).  ``m_var`` and ``m_cov_start`` have none: they are computed
+# (co)variances, round-off may leave an entry slightly below zero, and prediction clips what
+# it derives from them.
+ARRAYS = {
     # MovementPrimitives.fit
     "tau": ("f", "T", None),
     "signal_names": ("U", "I", None),
@@ -105,8 +113,8 @@ _ARRAYS = {
     "dur_K_inv": ("f", "GPNN", None),
     "support_radius": ("f", "G", ">=0"),
 }
-# The keys of a fitted model's ``state_``.  A file lacking any of them cannot predict.
-REQUIRED = tuple(_ARRAYS)
+# The fitted arrays' names.  A file lacking any of them cannot predict.
+REQUIRED = tuple(ARRAYS)
 _KINDS = {"f": "floating-point numbers", "iu": "integers", "U": "unicode text", "b": "booleans"}
 # What a model may predict for its own training steps.  s: walking phases last 0.1 to 1 s;
 # a hand-edited duration GP predicting hours would have a walk sampled at millions of
@@ -144,6 +152,22 @@ def _json_default(value):
     raise TypeError(f"metadata value {value!r} of type {type(value).__name__} cannot be written as JSON")
 
 
+def model_arrays(model: MovementPrimitives) -> dict[str, np.ndarray]:
+    """The arrays a model file holds of ``model``: every fitted array, by its name in the file.
+
+    Raises
+    ------
+    Error
+        If the model is not fitted, or lacks a fitted array.
+    """
+    missing = [name for name in REQUIRED if not hasattr(model, f"{name}_")]
+    if len(missing) == len(REQUIRED):
+        raise Error("the model is not fitted")
+    if missing:
+        raise Error(f"the model lacks the fitted arrays {', '.join(f'{name}_' for name in missing)}")
+    return {name: np.asarray(getattr(model, f"{name}_")) for name in REQUIRED}
+
+
 def save_model(path: str | Path, model: MovementPrimitives, metadata: dict) -> None:
     """Write a fitted model and ``metadata`` to an NPZ file, atomically.
 
@@ -158,14 +182,10 @@ def save_model(path: str | Path, model: MovementPrimitives, metadata: dict) -> N
         (format, checksum, settings, fit results) take precedence over keys of the same name.
     """
     path = Path(path)
-    if not hasattr(model, "state_"):
-        raise Error(f"cannot save {path}: the model is not fitted")
-    arrays = {name: np.asarray(value) for name, value in model.state_.items()}
-    missing = [name for name in REQUIRED if name not in arrays]
-    if missing:
-        raise Error(f"cannot save {path}: the model's state lacks {', '.join(missing)}")
-    if METADATA_KEY in arrays:
-        raise Error(f"cannot save {path}: the model's state has an array named {METADATA_KEY}")
+    try:
+        arrays = model_arrays(model)
+    except Error as exc:
+        raise Error(f"cannot save {path}: {exc}") from None
     pickled = [name for name, a in arrays.items() if a.dtype.hasobject]
     if pickled:  # NPZ would pickle them, and load_model refuses pickles
         raise Error(f"cannot save {path}: arrays {', '.join(pickled)} hold Python objects")
@@ -255,19 +275,11 @@ def _shown(value) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _is_whole(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)  # JSON true is no count
-
-
 def _is_real(value) -> bool:
     try:  # a JSON integer of 400 digits overflows a float
         return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
     except OverflowError:
         return False
-
-
-def _whole(least: int) -> Callable:
-    return lambda value: None if _is_whole(value) and value >= least else f"a whole number >= {least}"
 
 
 def _real(least: float | None = None) -> Callable:
@@ -277,10 +289,6 @@ def _real(least: float | None = None) -> Callable:
         return "a finite number" + ("" if least is None else f" >= {least:g}")
 
     return check
-
-
-def _one_of(choices: tuple[str, ...]) -> Callable:
-    return lambda value: None if value in choices and isinstance(value, str) else f"one of {', '.join(choices)}"
 
 
 def _text(value) -> str | None:
@@ -331,12 +339,13 @@ def _selection(value) -> str | None:
 # check returning what a wrong value should have been (None when right).  A check of a
 # nested object raises for its own entries.  Other entries are the caller's and pass.
 _METADATA = {
-    "n_primitives": (True, _whole(1)),
-    "kernel": (True, _one_of(TIME_KERNELS)),
-    "n_grid": (True, _whole(2)),
-    "max_iterations": (False, _whole(1)),  # the estimator's default stands in
+    # the estimator's parameters, by its own rules
+    "n_primitives": (True, PARAMETER_CHECKS["n_primitives"]),
+    "kernel": (True, PARAMETER_CHECKS["kernel"]),
+    "n_grid": (True, PARAMETER_CHECKS["n_grid"]),
+    "max_iterations": (False, PARAMETER_CHECKS["max_iterations"]),  # the estimator's default stands in
     "bound": (True, _real()),
-    "n_iter": (True, _whole(0)),
+    "n_iter": (True, whole(0)),
     "fit_time_s": (True, _real(0.0)),
     "explained_variance": (True, _scores),
     "robot": (False, _robot),  # synthesis defaults to DEFAULT_ROBOT
@@ -353,14 +362,14 @@ _DATASET = {
     "sha256": (False, _text),
     "created": (False, _text),
     "robot": (False, _text),
-    "steps": (False, _whole(1)),
+    "steps": (False, whole(1)),
 }
 _SELECTION_ROW = {
-    "n_primitives": (True, _whole(1)),
-    "kernel": (True, _one_of(TIME_KERNELS)),
+    "n_primitives": (True, PARAMETER_CHECKS["n_primitives"]),
+    "kernel": (True, PARAMETER_CHECKS["kernel"]),
     "bound": (True, _real()),
     "explained_variance": (True, _scores),
-    "iterations": (True, _whole(0)),
+    "iterations": (True, whole(0)),
     "fit_time_s": (False, _real(0.0)),
 }
 
@@ -384,7 +393,7 @@ def _check_arrays(meta: dict, arrays: dict[str, np.ndarray]) -> None:
     missing = [name for name in REQUIRED if name not in arrays]
     if missing:
         raise _Invalid(f"lacks the model arrays {', '.join(missing)}")
-    for name, (kinds, axes, _) in _ARRAYS.items():
+    for name, (kinds, axes, _) in ARRAYS.items():
         _check_kind_and_ndim(name, arrays[name], kinds, axes)
     names = [str(n) for n in arrays["signal_names"]]
     types = [str(t) for t in arrays["types"]]
@@ -400,7 +409,7 @@ def _check_arrays(meta: dict, arrays: dict[str, np.ndarray]) -> None:
         "B": max(phases) + 1,
         "Z": _parameter_count(arrays["lengths"]),
     }
-    for name, (_, axes, sign) in _ARRAYS.items():
+    for name, (_, axes, sign) in ARRAYS.items():
         _check_shape(name, arrays[name], axes, sizes)
         _check_values(name, arrays[name], sign)
     _check_step_parameters(arrays["lengths"])
@@ -583,7 +592,7 @@ def _check_predictions(model: MovementPrimitives, types: list[str], counts: np.n
     almost no variance, and conditioning it on another step's end, which no walk does, can
     be off by orders of magnitude in a correctly fitted model.
     """
-    lengths = model.state_["lengths"]
+    lengths = model.lengths_
     for g, t in enumerate(types):
         if not _trajectories()[t].first:  # predicted with the first part
             continue
@@ -625,11 +634,12 @@ def _model(meta: dict, arrays: dict[str, np.ndarray]) -> MovementPrimitives:
         n_grid=meta["n_grid"],
         **({"max_iterations": meta["max_iterations"]} if "max_iterations" in meta else {}),
     )
+    for name in REQUIRED:
+        setattr(model, f"{name}_", arrays[name])
     model.bound_ = float(meta["bound"])
     model.n_iter_ = meta["n_iter"]
     model.fit_time_s_ = float(meta["fit_time_s"])
     model.explained_variance_ = {k: float(v) for k, v in meta["explained_variance"].items()}
-    model.state_ = arrays
     model.metadata_ = meta
     return model
 
@@ -640,8 +650,8 @@ def load_model(path: str | Path) -> MovementPrimitives:
     Returns
     -------
     MovementPrimitives
-        Fitted: ``state_``, ``bound_``, ``n_iter_``, ``fit_time_s_`` and
-        ``explained_variance_`` are set, and ``metadata_`` holds the decoded metadata.
+        Fitted: every fitted attribute is set (the arrays of the file, ``bound_``, ``n_iter_``,
+        ``fit_time_s_``, ``explained_variance_``), and ``metadata_`` holds the decoded metadata.
     """
     return _model(*_read(path))
 

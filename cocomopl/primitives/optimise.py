@@ -39,11 +39,12 @@ GAMMA_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 3e3, 1e4)  # 1/m^2: width
 ETA_GRID = tuple(np.geomspace(JITTER, 1.0, 7))  # relative nuggets, a decade apart
 
 
-def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, mu: np.ndarray) -> BoundData:
+def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, *, tau: np.ndarray, mu: np.ndarray) -> BoundData:
     return BoundData(X_slots, mask, d2, np.abs(tau[:, None] - tau[None, :]), mu)
 
 
-def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, tau: np.ndarray, S: int, signal_weights: np.ndarray):
+def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, *, tau: np.ndarray, S: int,
+                       signal_weights: np.ndarray):
     """PCA start: MP means are the leading right singular vectors of the (steps x signals,
     time) data, each signal scaled by ``signal_weights`` (I,)."""
     I, T = X_slots.shape[2:]
@@ -68,13 +69,13 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, ta
         "chi": chi,
         "log_sigma": np.log(sigma),
     }
-    data = bound_data(X_slots, mask, d2, tau, mu)
-    prior = WeightKernels(ShapeCache(data), alpha_w, gamma_w, eta_w)
+    data = bound_data(X_slots, mask, d2, tau=tau, mu=mu)
+    prior = WeightKernels(ShapeCache(data), alpha_w, gamma_w, eta=eta_w)
     params["v"] = prior.whiten((w - chi[..., None]) * mask) * mask
     return params, data
 
 
-def unit_weight_kernels(d2: np.ndarray, mask: np.ndarray, gamma, eta) -> np.ndarray:
+def unit_weight_kernels(d2: np.ndarray, mask: np.ndarray, gamma, *, eta) -> np.ndarray:
     """Eq. (5)'s kernel of unit amplitude plus the relative nugget, per step type: (..., G, N, N)
     for widths ``gamma`` and nuggets ``eta`` (...), with an identity on empty slots so that it
     stays invertible."""
@@ -97,7 +98,7 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     rhs = (deviation * mask).reshape(I * S, G, N).transpose(1, 2, 0)  # (G, N, I S): one kernel for all (i, s)
     best = None
     for gamma, eta in itertools.product(GAMMA_GRID, ETA_GRID):
-        L = slot_algebra.cholesky(unit_weight_kernels(d2, mask, gamma, eta), groups)  # (G, N, N)
+        L = slot_algebra.cholesky(unit_weight_kernels(d2, mask, gamma, eta=eta), groups)  # (G, N, N)
         z = slot_algebra.solve(L, rhs, groups).transpose(2, 0, 1).reshape(I, S, G, N)
         alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)
         log_det = 2 * (np.log(np.diagonal(L, axis1=-2, axis2=-1)) * mask).sum()
@@ -115,6 +116,7 @@ def maximise_bound(
     X_slots,
     mask,
     d2,
+    *,
     tau,
     S: int,
     kernel: str,
@@ -127,7 +129,7 @@ def maximise_bound(
 
     ``on_iteration``, if given, is called after every L-BFGS-B iteration with the bound reached.
     """
-    params, data = initial_parameters(X_slots, mask, d2, tau, S, signal_weights)
+    params, data = initial_parameters(X_slots, mask, d2, tau=tau, S=S, signal_weights=signal_weights)
     flat, unravel = ravel_pytree({k: jnp.asarray(v) for k, v in params.items()})
     bounds = _bounds(params, tau)
     scale = float(mask.sum() * X_slots.shape[2] * X_slots.shape[3])  # per datum, for L-BFGS tolerances
@@ -171,8 +173,8 @@ def _bounds(params: dict, tau: np.ndarray) -> list:
 def _prediction_arrays(params: dict, data: BoundData, kernel: str, priors: tuple | None = None) -> dict:
     """What prediction needs: MP posterior, weight-GP hyperparameters and solves, noise;
     ``priors`` as for :func:`~cocomopl.primitives.bound.posterior`."""
-    A, B = priors or (mp_prior(params, data, kernel, np), weight_prior(params, data, np))
-    q = posterior(params, data, kernel, np, (A, B))
+    A, B = priors or (mp_prior(params, data, kernel, xp=np), weight_prior(params, data, np))
+    q = posterior(params, data, kernel, xp=np, priors=(A, B))
     d = np.exp(params["log_d"])[:, None, None]
     m_cov = A @ np.linalg.inv(np.eye(A.shape[-1]) + d * A)  # (S, T, T): each primitive's posterior covariance
     if isinstance(B, WeightKernels):  # EM's priors, factorised per kernel shape

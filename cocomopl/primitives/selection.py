@@ -59,6 +59,7 @@ def select_model(
     steps: TrainingSteps,
     n_primitives: Iterable[int] = DEFAULT_PRIMITIVES,
     kernels: Iterable[str] = DEFAULT_KERNELS,
+    *,
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
     workers: int = 1,
     progress: bool = False,

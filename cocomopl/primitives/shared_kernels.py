@@ -10,7 +10,7 @@ eigenvalues ``b = alpha lam`` between two products with ``U``, or a product with
 the posterior ``(I + c B)^-1 (...)``, its covariance ``B (I + c B)^-1``, inverses,
 log-determinants and the Cholesky whitening of the bound's parametrisation
 (:mod:`cocomopl.primitives.bound`).  The dense priors cost a factorisation per GP and per
-round, and an (I, S, G, N, N) array (1 GB for that model) that EM no longer forms.
+round, and an (I, S, G, N, N) array (1 GB for that model) that EM never forms.
 
 Vectors are in the slot layout (I, S, G, N) (:mod:`~cocomopl.primitives.slot_algebra`).
 Only a type's first n slots, its steps, are used; results are zero on the empty slots.
@@ -66,7 +66,7 @@ class WeightKernels:
     primitive s), from the factors of their shapes in ``cache``; ``alpha``, ``gamma`` and
     ``eta`` are (I, S)."""
 
-    def __init__(self, cache: ShapeCache, alpha: np.ndarray, gamma: np.ndarray, eta: np.ndarray):
+    def __init__(self, cache: ShapeCache, alpha: np.ndarray, gamma: np.ndarray, *, eta: np.ndarray):
         self.cache, self.alpha, self.gamma, self.eta = cache, alpha, gamma, eta
         shapes, shape_of = distinct_shapes(gamma, eta)
         self._shapes = [(np.nonzero(shape_of == k), cache.factors(g, e)) for k, (g, e) in enumerate(zip(*shapes))]
@@ -80,7 +80,7 @@ class WeightKernels:
     def primitive(self, s: int) -> WeightKernels:
         """The priors of primitive ``s`` alone, (I, 1)."""
         at = (slice(None), slice(s, s + 1))
-        return WeightKernels(self.cache, self.alpha[at], self.gamma[at], self.eta[at])
+        return WeightKernels(self.cache, self.alpha[at], self.gamma[at], eta=self.eta[at])
 
     def _map(self, x: np.ndarray, factor: str, transpose: bool = False, square: bool = False) -> np.ndarray:
         """``F x`` per GP, for the factor ``F`` of its shape named ``factor`` (its transpose,
@@ -149,7 +149,7 @@ class WeightKernels:
 
     def bound_terms(self, c: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
         """What the bound takes of the weight posteriors ``Omega = B (I + c B)^-1`` with
-        whitened means ``v``, as :func:`~cocomopl.primitives.bound._weight_diagonals` returns
+        whitened means ``v``, as :func:`~cocomopl.primitives.bound.weight_diagonals` returns
         it: ``chol(B) v``, the diagonals of ``Omega`` and of ``(I + c B)^-1``, and per slot
         terms that sum over each type's steps to ``log |I + c B|``."""
         shift = 1.0 + c[..., None, None] * self.b

@@ -28,7 +28,7 @@ def _diagonal(M):
     return M.diagonal(axis1=-2, axis2=-1)
 
 
-def put(out, index: tuple, block, xp=np):
+def put(out, index: tuple, block, *, xp=np):
     """``out`` with ``block`` written at ``out[index]``: in place for NumPy, a new array for JAX."""
     if xp is np:
         out[index] = block
@@ -39,7 +39,7 @@ def put(out, index: tuple, block, xp=np):
 def _with_blocks(out, blocks, groups, xp):
     """``out`` (..., G, N, N) with each group's blocks (..., g, n, n) written over its types' first n rows and columns."""
     for (n, idx), block in zip(groups, blocks):
-        out = put(out, (..., idx, slice(None, n), slice(None, n)), block, xp)
+        out = put(out, (..., idx, slice(None, n), slice(None, n)), block, xp=xp)
     return out
 
 
@@ -57,12 +57,12 @@ def cholesky(M, groups, xp=np):
     return _with_blocks(out, [xp.linalg.cholesky(M[..., idx, :n, :n]) for n, idx in groups], groups, xp)
 
 
-def solve(M, R, groups, xp=np):
+def solve(M, R, groups, *, xp=np):
     """``M^-1 R`` for slot matrices ``M`` (..., G, N, N), triangular or not, and right-hand
     sides ``R`` (..., G, N, k); leading axes broadcast."""
     out = R / _diagonal(M)[..., None]
     if xp is np:
         out = np.array(out)  # writable, whatever R was
     for n, idx in groups:
-        out = put(out, (..., idx, slice(None, n), slice(None)), xp.linalg.solve(M[..., idx, :n, :n], R[..., idx, :n, :]), xp)
+        out = put(out, (..., idx, slice(None, n), slice(None)), xp.linalg.solve(M[..., idx, :n, :n], R[..., idx, :n, :]), xp=xp)
     return out

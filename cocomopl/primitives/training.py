@@ -129,7 +129,7 @@ def load_training_steps(path) -> TrainingSteps:
 
 def _phase_durations(t: np.ndarray, phase_time: np.ndarray) -> np.ndarray:
     """Duration of each phase from the times at which the phase counter passes each integer."""
-    n_phases = int(round(phase_time[-1]))
+    n_phases = round(phase_time[-1])
     boundaries = np.interp(np.arange(n_phases + 1), phase_time, t)
     return np.diff(boundaries)
 
@@ -156,15 +156,15 @@ def to_template_time(phase_time: np.ndarray, boundaries: np.ndarray) -> np.ndarr
 
 
 def resample(
-    steps: TrainingSteps, templates: dict[str, np.ndarray], tau: np.ndarray, types: list[str] | None = None
+    steps: TrainingSteps, templates: dict[str, np.ndarray], tau: np.ndarray, *, types: list[str] | None = None
 ) -> np.ndarray:
     """All steps' signals on the template grid ``tau``: (K, I, T); ``types`` as in :func:`phase_templates`."""
     return np.stack(
-        [resample_step(v, pt, templates[t], tau) for t, v, pt in zip(_types(steps, types), steps.values, steps.phase_time)]
+        [resample_step(v, pt, templates[t], tau=tau) for t, v, pt in zip(_types(steps, types), steps.values, steps.phase_time)]
     )
 
 
-def resample_step(values: np.ndarray, phase_time: np.ndarray, boundaries: np.ndarray, tau: np.ndarray) -> np.ndarray:
+def resample_step(values: np.ndarray, phase_time: np.ndarray, boundaries: np.ndarray, *, tau: np.ndarray) -> np.ndarray:
     """One step's signals (n, I) at per-phase times ``phase_time`` on the template grid
     ``tau`` of phase ``boundaries``: (I, T)."""
     x = to_template_time(phase_time, boundaries)

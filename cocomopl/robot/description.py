@@ -43,10 +43,10 @@ def available_robots() -> list[str]:
 
 
 def read_description(name_or_path: str) -> dict:
-    """Read a robot description by bundled name (``talos``) or JSON path."""
+    """Read a robot description by bundled name (``talos``, in any case) or JSON path."""
     path = Path(name_or_path)
     if path.suffix != ".json":
-        path = DESCRIPTIONS_DIR / f"{name_or_path}.json"
+        path = DESCRIPTIONS_DIR / f"{name_or_path.lower()}.json"
         if not path.exists():
             raise Error(
                 f"unknown robot {name_or_path!r}: choose one of {', '.join(available_robots())} "

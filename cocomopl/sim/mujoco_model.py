@@ -194,7 +194,9 @@ def _visuals(visual: pin.GeometryModel | None, jid: int, meshes: dict[str, tuple
     return out
 
 
-def _body(robot: Robot, jid: int, visual, meshes: dict[str, tuple[Path, np.ndarray]]) -> str:
+def _body(robot: Robot, jid: int, visual, meshes: dict[str, tuple[Path, np.ndarray]],
+          placement: pin.SE3 | None = None) -> str:
+    """The body of joint ``jid`` and its subtree, at ``placement`` in its parent (default: the model's)."""
     model = robot.model
     children = [j for j in range(jid + 1, model.njoints) if model.parents[j] == jid]
     joint = "<freejoint/>" if jid == 1 else _hinge(robot, jid)
@@ -202,7 +204,8 @@ def _body(robot: Robot, jid: int, visual, meshes: dict[str, tuple[Path, np.ndarr
     parts += _visuals(visual, jid, meshes)
     parts += [_sole(robot, side) for side in SIDES if model.frames[robot.foot_frames[side]].parentJoint == jid]
     parts += [_body(robot, child, visual, meshes) for child in children]
-    return f'<body name="{model.names[jid]}" {_pose(model.jointPlacements[jid])}>\n' + "\n".join(parts) + "\n</body>"
+    placement = model.jointPlacements[jid] if placement is None else placement
+    return f'<body name="{model.names[jid]}" {_pose(placement)}>\n' + "\n".join(parts) + "\n</body>"
 
 
 def _servos(robot: Robot):
@@ -231,8 +234,25 @@ def _mesh_assets(visual: pin.GeometryModel, meshes: dict[str, tuple[Path, np.nda
     )
 
 
+def standing_height(robot: Robot) -> float:
+    """The height (m) of the upright base at which the robot, every joint at zero, rests its
+    lowest sole corner on the floor."""
+    q = pin.neutral(robot.model)
+    corners = np.c_[robot.sole.corners(), np.zeros(4)]  # in the sole frame
+    soles = [robot.frame_placement(q, robot.foot_frames[side]) for side in SIDES]
+    return -min(float((M.rotation @ corners.T)[2].min() + M.translation[2]) for M in soles)
+
+
+def _home(robot: Robot) -> str:
+    """The keyframe ``home``: the reference posture standing on the floor, the servos holding it."""
+    q = robot.q_ref
+    return (f'<keyframe>\n<key name="home" qpos="{_vec([*q[:3], q[6], q[3], q[4], q[5], *q[7:]])}" '
+            f'ctrl="{_vec(q[7:])}"/>\n</keyframe>')
+
+
 def mjcf(
-    robot: Robot, visuals: bool = True, contact_time_constant: float = CONTACT_TIME_CONSTANT, mesh_folder: str | None = None
+    robot: Robot, *, visuals: bool = True, contact_time_constant: float = CONTACT_TIME_CONSTANT,
+    mesh_folder: str | None = None, home: bool = False,
 ) -> str:
     """The MJCF text of the robot on a flat floor.
 
@@ -243,12 +263,19 @@ def mjcf(
     contact_time_constant : sole-floor ``solref`` time constant, s
     mesh_folder : ``None`` names the mesh files by absolute path; a folder (relative to the
         XML file) names them ``mesh_folder/<path in mesh_files>``, for a copy of the meshes
+    home : for a model file used on its own (:mod:`cocomopl.export.mjcf`): the base at
+        :func:`standing_height`, so that the model as loaded (every joint and servo command at
+        zero) stands on the floor, and the keyframe ``home``, the reference posture standing
+        on the floor with the servo commands that hold it.  The simulator sets every state
+        and command itself and builds without them.
     """
     solref = f"{contact_time_constant:.6g} 1"
     meshes: dict[str, tuple[Path, np.ndarray]] = {}
     visual = robot.visual_model() if visuals else None
-    body = _body(robot, 1, visual, meshes)
+    base = pin.SE3(np.eye(3), np.array([0.0, 0.0, standing_height(robot)])) if home else None
+    body = _body(robot, 1, visual, meshes, base)
     assets = _mesh_assets(visual, meshes, mesh_folder) if meshes else ""
+    keyframe = "\n" + _home(robot) if home else ""
     return f"""<mujoco model="{robot.name}">
 <compiler angle="radian" autolimits="true" boundmass="0" boundinertia="0"/>
 <option timestep="{TIMESTEP}" integrator="implicitfast"/>
@@ -271,7 +298,7 @@ def mjcf(
 </worldbody>
 <actuator>
 {_actuators(robot)}
-</actuator>
+</actuator>{keyframe}
 </mujoco>"""
 
 
@@ -302,7 +329,7 @@ def build_sim_model(robot: Robot, visuals: bool = True, contact_time_constant: f
     if contact_time_constant is None:
         contact_time_constant = CONTACT_TIME_CONSTANT
     check_contact_time_constant(contact_time_constant)
-    spec = mujoco.MjSpec.from_string(mjcf(robot, visuals, contact_time_constant))
+    spec = mujoco.MjSpec.from_string(mjcf(robot, visuals=visuals, contact_time_constant=contact_time_constant))
     mj = spec.compile()
     names = [mj.joint(j).name for j in range(1, mj.njnt)]
     if names != robot.joint_names or mj.nu != robot.nu:

@@ -5,8 +5,8 @@ A robot's model is never exact, and its floor is never the plan's.  :class:`Pert
 says how far the world may be off; :meth:`Perturbation.draw` draws one world from it (one
 trial: each link's error drawn on its own, uniformly within the bounds), and
 :func:`perturbed` makes the MuJoCo model of that world from the robot's, which is left as it
-was.  A :class:`Push` is a force on the pelvis for a while; the rollout applies it
-(:func:`~cocomopl.sim.rollout.simulate`).  The servos' own errors (gains, latency, encoder
+was.  A :class:`Push` is a force on the pelvis for a while, a hook of the rollout's loop
+(:mod:`cocomopl.sim.hooks`).  The servos' own errors (gains, latency, encoder
 noise) are :mod:`cocomopl.sim.servos`'.
 """
 
@@ -20,11 +20,12 @@ import mujoco
 import numpy as np
 
 from cocomopl.errors import Error
+from cocomopl.sim.hooks import Hook, Step
 from cocomopl.sim.mujoco_model import FRICTION
 
 
 @dataclass(frozen=True)
-class Push:
+class Push(Hook):
     """A horizontal force ``force_n`` (x, y; N, world axes) on the pelvis from ``time_s``
     (after the motion's start) for ``duration_s``."""
 
@@ -36,6 +37,9 @@ class Push:
         """The force (3,) at ``time`` (s after the motion's start)."""
         on = self.time_s <= time < self.time_s + self.duration_s
         return np.array([*self.force_n, 0.0]) if on else np.zeros(3)
+
+    def before_step(self, step: Step) -> None:
+        step.data.xfrc_applied[step.sim.base_body, :3] += self.force_at(step.elapsed)
 
 
 MAX_PUSH_N = 5000.0  # a larger force is a typing error, not a push

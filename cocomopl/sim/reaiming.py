@@ -10,7 +10,8 @@ leg odometry, and aims the next step from there.
 has settled: the step before is taken to have landed where the stance sole is measured, and
 the step under way to land where the original plan put it (:func:`reaimed_specs`).  The
 primitives then generate the changed walk (a step is conditioned only on those before it)
-and the rollout follows it from that moment (:func:`cocomopl.sim.rollout.simulate`).  The
+and the rollout follows it from that moment (:func:`cocomopl.sim.rollout.simulate`; a
+:class:`~cocomopl.sim.hooks.Replanner`).  The
 plan's world thus stays the measured one, so the stabilizer, where it runs, compares the
 robot with a reference on the soles it stands on.
 
@@ -27,7 +28,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from time import perf_counter
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -36,6 +37,10 @@ from cocomopl.gait import OTHER_SIDE, check_footstep, footsteps, sole_poses, wra
 from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.planning.footsteps import relative_footstep, same_footstep
 from cocomopl.robot import Robot
+from cocomopl.sim.hooks import Step
+
+if TYPE_CHECKING:
+    from cocomopl.sim.stabilizer import Stabilizer
 
 SETTLED = 0.2  # fraction of a single support after which its stance sole is taken as settled
 SHARES = (1.0, 0.5, 0.0)  # of the measured error a step is aimed to correct, tried in turn
@@ -78,7 +83,7 @@ def _with_footsteps(spec: StepSpec, start: Footstep, end: Footstep) -> StepSpec:
         start = Footstep(0.0)
     if spec.kind == "stop":
         end = Footstep(0.0)
-    return StepSpec.between(_kind(spec.kind, start, end), start, end, spec.swing_side)
+    return StepSpec.between(_kind(spec.kind, start, end), start, end, swing_side=spec.swing_side)
 
 
 def _within(footstep: Footstep, limits: dict[str, tuple[float, float]]) -> Footstep:
@@ -92,7 +97,7 @@ def _within(footstep: Footstep, limits: dict[str, tuple[float, float]]) -> Foots
 def _clear(robot: Robot, side: str, footstep: Footstep) -> bool:
     """Whether sole ``side`` may land at ``footstep`` (:func:`~cocomopl.gait.check_footstep`)."""
     try:
-        check_footstep(robot, side, *footstep)
+        check_footstep(robot, side, footstep)
     except Error:
         return False
     return True
@@ -136,7 +141,7 @@ def reaimed_specs(
         return None
     poses = sole_poses(robot, list(specs[: step + 1]))  # a step's soles depend only on the steps before it
     # where the step before really landed: not refused for the clearance it did not keep
-    landed = _within(relative_footstep(robot, poses[step - 1][spec.swing_side], stance, side), limits)
+    landed = _within(relative_footstep(robot, poses[step - 1][spec.swing_side], stance, side=side), limits)
     error = _offset(stance, poses[step][side])
     out = list(specs)
     out[step - 1] = _with_footsteps(before, before.start_footstep, landed)
@@ -145,7 +150,7 @@ def reaimed_specs(
         return Reaim(out, _miss(robot, out, targets, step), error)
     for share in SHARES:
         aim = targets[step] + (1.0 - share) * error
-        footstep = _within(relative_footstep(robot, stance, aim, spec.swing_side), limits)
+        footstep = _within(relative_footstep(robot, stance, aim, side=spec.swing_side), limits)
         if _clear(robot, spec.swing_side, footstep):
             break
     else:
@@ -165,7 +170,7 @@ def _miss(robot: Robot, specs: Sequence[StepSpec], targets: Sequence[np.ndarray]
 @dataclass
 class Reaiming:
     """Re-aims each step of a walk from its measured stance sole, and has the walk
-    generated again (see the module's text).
+    generated again (see the module's text): a rollout's :class:`~cocomopl.sim.hooks.Replanner`.
 
     Parameters
     ----------
@@ -186,6 +191,16 @@ class Reaiming:
         self.specs = list(self.motion.steps)
         self.targets = landing_targets(self.robot, self.specs)
         self._tried: set[int] = set()
+
+    def start(self, stabilizer: Stabilizer | None) -> None:
+        """Re-aiming runs with or without the stabilizer."""
+
+    def replan(self, step: Step) -> Motion | None:
+        """:meth:`check` on the soles measured at ``step``."""
+        return self.check(step.elapsed, step.soles())
+
+    def metadata(self) -> dict[str, list[dict]]:
+        return {"reaimed": [change.as_dict() for change in self.reaimed]}
 
     def check(self, time: float, soles: dict[str, np.ndarray]) -> Motion | None:
         """The walk generated again with the step under way re-aimed, or None: not yet, or

@@ -12,7 +12,7 @@ landing moves by that much, within the footstep range the model learned.  Every 
 landing moves with it, so only that step's footstep changes.  The primitives then generate
 the changed walk (the steps before it are generated as before: each is conditioned only on
 those before it) and the rollout follows the new reference from that moment
-(:func:`cocomopl.sim.rollout.simulate`).
+(:func:`cocomopl.sim.rollout.simulate`; a :class:`~cocomopl.sim.hooks.Replanner`).
 
 One change per step, at most ``LATEST`` of the way through its single support (a later one
 leaves the swing foot no time to get there), and not in the last two landings: a stop
@@ -25,6 +25,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from time import perf_counter
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -33,8 +34,12 @@ from cocomopl.gait import OTHER_SIDE, foot_separation, footstep_pose, initial_so
 from cocomopl.motion import Motion
 from cocomopl.planning.footsteps import Landing, relative_footstep
 from cocomopl.robot import Robot
+from cocomopl.sim.hooks import Step
 
-LATEST = 0.6  # fraction of a single support after which its landing is no longer moved
+if TYPE_CHECKING:
+    from cocomopl.sim.stabilizer import Stabilizer
+
+LATEST = 0.6  # fraction of a single support after which its landing is not moved
 
 
 @dataclass
@@ -54,7 +59,8 @@ class Replanned:
 @dataclass
 class StepRecovery:
     """Moves landings of a walk on footsteps when a push carries its capture point off the
-    stance sole, and has the walk generated again.
+    stance sole, and has the walk generated again: a rollout's
+    :class:`~cocomopl.sim.hooks.Replanner`, which needs the stabilizer's DCM error.
 
     Parameters
     ----------
@@ -77,6 +83,25 @@ class StepRecovery:
             raise Error(f"recovery needs the walk's landings: {len(self.landings)} for {len(self.motion.steps)} steps")
         self.landings = list(self.landings)
         self._moved: set[int] = set()
+        self._stabilizer: Stabilizer | None = None
+
+    def start(self, stabilizer: Stabilizer | None) -> None:
+        if stabilizer is None:
+            raise Error("recovery by stepping needs the stabilizer")
+        self._stabilizer = stabilizer
+
+    def replan(self, step: Step) -> Motion | None:
+        """The walk generated again if the reference stands on one sole and the stabilizer's
+        DCM error has outgrown it (:meth:`check`); else None."""
+        control = self._stabilizer
+        stance = control.stance(step.elapsed)
+        if stance is None:
+            return None
+        x, y, yaw = step.soles()[stance]
+        return self.check(step.elapsed, control.dcm_error, control.omega, (np.array([x, y]), float(yaw)))
+
+    def metadata(self) -> dict[str, list[dict]]:
+        return {"recoveries": [change.as_dict() for change in self.replanned]}
 
     def check(self, time: float, error: np.ndarray, omega: float, stance_sole: tuple[np.ndarray, float]) -> Motion | None:
         """The walk generated again with a landing moved, or None if nothing needs to change.
@@ -130,10 +155,10 @@ class StepRecovery:
         side = old.side
         stance = self._stance_pose(step)
         wanted = np.array([old.x + shift[0], old.y + shift[1], old.yaw])
-        footstep = relative_footstep(self.robot, stance, wanted, side)
+        footstep = relative_footstep(self.robot, stance, wanted, side=side)
         length = float(np.clip(footstep.length, *self.footstep_range["length"]))
         width = float(np.clip(footstep.width, *self.footstep_range["width"]))
-        landed = footstep_pose(stance, side, length, width, footstep.turn, foot_separation(self.robot))
+        landed = footstep_pose(stance, side, (length, width, footstep.turn), separation=foot_separation(self.robot))
         dx, dy = landed[0] - old.x, landed[1] - old.y
         if math.hypot(dx, dy) < 1e-3:
             return None

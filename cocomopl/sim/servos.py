@@ -4,8 +4,9 @@ A real robot's joint servos are not the simulator's ideal ones.  Their gains are
 joint group, the command a controller computes reaches the motor drives a few milliseconds
 later, and each servo closes its loop on an encoder reading with noise.  This module holds
 those settings (:class:`ServoSettings`) and applies them to a MuJoCo model's position
-servos (:func:`with_gains`) and to the commands of a rollout (:class:`CommandChannel`); the
-rollout (:func:`~cocomopl.sim.rollout.simulate`) uses both.
+servos (:func:`with_gains`) and to the commands of a rollout (:class:`CommandChannel`, the
+last hook of the rollout's loop, :mod:`cocomopl.sim.hooks`); the rollout
+(:func:`~cocomopl.sim.rollout.simulate`) uses both.
 
 A position servo's torque is ``kp (command - q) - kv qdot``, so an encoder reading
 ``q + n`` acts exactly like the command ``command - n``: the noise is applied that way.
@@ -20,6 +21,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from cocomopl.errors import Error
+from cocomopl.sim.hooks import Hook, Step
 
 GROUPS = ("legs", "torso", "arms")
 ALL = "all"
@@ -98,7 +100,7 @@ def with_gains(sim, settings: ServoSettings):
     return out
 
 
-class CommandChannel:
+class CommandChannel(Hook):
     """The way from the controller's joint commands to the servos: delayed by the latency
     (in whole control steps) and offset by the encoder noise."""
 
@@ -109,7 +111,10 @@ class CommandChannel:
         self.queue: deque[np.ndarray] = deque()
         self.n = n
 
-    def __call__(self, command: np.ndarray) -> np.ndarray:
+    def command(self, step: Step, command: np.ndarray) -> np.ndarray:
+        return self.received(command)
+
+    def received(self, command: np.ndarray) -> np.ndarray:
         """The command the servos act on now, given the one the controller just computed."""
         if not self.queue:  # before the first command arrives the servos hold the first one
             self.queue.extend([command] * self.delay)

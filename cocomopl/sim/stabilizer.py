@@ -49,6 +49,7 @@ import pinocchio as pin
 from cocomopl.dynamics import GRAVITY, SIDES
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
+from cocomopl.sim.hooks import Hook, Step
 
 ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
@@ -102,8 +103,7 @@ class StabilizerGains:
 # Per walk generator (the motion's ``meta["producer"]``), the gains tuned on three sequences
 # that no reported figure uses (benchmarks/stabilizer_tuning.py, docs/results.md#stabilizer-tuning).
 # A setting replaces the standing D = 3000, K = 2 only if it lowers the generator's mean peak
-# force by more than 0.01 x weight.  With the bundled model none does (MP: 0.002 at K = 3);
-# the previous model's MP walk took D = 300, K = 1 (0.012).
+# force by more than 0.01 x weight.  With the bundled model none does (MP: 0.002 at K = 3).
 TUNED_GAINS = {
     "primitives": StabilizerGains(),
     "ocp": StabilizerGains(),
@@ -116,7 +116,7 @@ def gains_for(reference: Motion) -> StabilizerGains:
     return TUNED_GAINS.get(reference.meta.get("producer"), StabilizerGains())
 
 
-def _leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """At each configuration ``q`` (n, nq), per sole:
 
     * lifts (n, 2, nu): leg-joint offsets that raise the sole by 1 m relative to the pelvis,
@@ -146,8 +146,9 @@ def _leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return lifts, moments, orientations
 
 
-class Stabilizer:
-    """Corrections to the commanded joint angles of one rollout (it keeps the ankle state)."""
+class Stabilizer(Hook):
+    """Corrections to the commanded joint angles of one rollout (it keeps the ankle state):
+    a hook of the rollout's loop (:mod:`cocomopl.sim.hooks`)."""
 
     def __init__(self, sim, reference: Motion, gains: StabilizerGains = StabilizerGains()):
         self.sim = sim
@@ -156,7 +157,7 @@ class Stabilizer:
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
         self.dt = float(sim.mj.opt.timestep)
-        self.follow(reference)
+        self._track(reference)
         self.com = None  # the measured CoM at the previous call, for its velocity
         self.com_velocity = np.zeros(2)
         self.dcm_error = np.zeros(2)  # measured DCM minus the reference's (world x, y), at the last call
@@ -164,9 +165,14 @@ class Stabilizer:
         self.tilts = np.zeros((2, 2))  # ankle pitch and roll offsets taking up each sole's tilt
         self.z = 0.0
 
-    def follow(self, reference: Motion) -> None:
-        """Track ``reference`` from now on, keeping the feedback's state (a walk replanned
-        while it is played, :mod:`cocomopl.sim.recovery`)."""
+    def command(self, step: Step, command: np.ndarray) -> np.ndarray:
+        return command + self.correction(step.data, step.clock)
+
+    def replanned(self, step: Step, motion: Motion) -> None:
+        """Track ``motion`` from now on, keeping the feedback's state."""
+        self._track(motion)
+
+    def _track(self, reference: Motion) -> None:
         keep = reference.kept_samples()
         self.t = reference.t[keep]
         self.contact = reference.contact[keep]
@@ -174,7 +180,7 @@ class Stabilizer:
         self.rpy = np.array([pin.rpy.matrixToRpy(pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()) for q in reference.q[keep]])
         self.forces = reference.wrenches[keep, :, 2]
         self.force_difference = self.forces[:, 0] - self.forces[:, 1]
-        self.lifts, self.moments, self.sole_rotations = _leg_maps(self.robot, reference.q[keep])
+        self.lifts, self.moments, self.sole_rotations = leg_maps(self.robot, reference.q[keep])
         model = self.robot.model
         data = model.createData()
         com = np.array([pin.centerOfMass(model, data, qk) for qk in reference.q[keep]])

@@ -122,9 +122,9 @@ def _stance_error(robot: Robot, q: np.ndarray, ground: list[list[pin.SE3 | None]
     )
 
 
-def multibody_zmp(robot: Robot, t, q, contact, impacts) -> np.ndarray:
+def multibody_zmp(robot: Robot, t, q, *, contact, impacts) -> np.ndarray:
     """ZMP (n, 3) of the contact wrenches that inverse dynamics needs for the motion."""
-    _, _, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
+    _, _, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact=contact, impacts=impacts)
     return zmp_from_wrenches(sole_placements(robot, q), wrenches)
 
 
@@ -148,6 +148,7 @@ def dynamics_filter(
     robot: Robot,
     t: np.ndarray,
     q: np.ndarray,
+    *,
     contact: np.ndarray,
     impacts: np.ndarray,
     ground: list[list[pin.SE3 | None]],
@@ -182,9 +183,10 @@ def dynamics_filter(
         q_pass = q.copy()
         q_pass[:, :2] += shift
         q_pass = np.array(
-            [place_legs(robot, qk, dict(zip(SIDES, tk)), legs, FILTER_HEIGHT_WEIGHT) for qk, tk in zip(q_pass, targets)]
+            [place_legs(robot, qk, dict(zip(SIDES, tk)), legs=legs, height_weight=FILTER_HEIGHT_WEIGHT)
+             for qk, tk in zip(q_pass, targets)]
         )
-        zmp = multibody_zmp(robot, t, q_pass, contact, impacts)
+        zmp = multibody_zmp(robot, t, q_pass, contact=contact, impacts=impacts)
         error = zmp[:, :2] - zmp_ref[:, :2]
         errors.append(rms_zmp_error(zmp, zmp_ref, impacts))
         # a pass whose shift put a planned footstep out of the legs' reach is not a candidate

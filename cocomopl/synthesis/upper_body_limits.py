@@ -136,12 +136,12 @@ def _solve_qp(H: sp.csc_matrix, C: sp.csc_matrix, lower: np.ndarray, upper: np.n
 def _limited_values(robot: Robot, t, q, contact, impacts, intervals: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """The upper body's torques on each interval, then its velocities at each sample, as
     one vector (sample-major)."""
-    v, tau, _ = inverse_dynamics_with_contacts(robot, t, q, contact, impacts)
+    v, tau, _ = inverse_dynamics_with_contacts(robot, t, q, contact=contact, impacts=impacts)
     return np.concatenate([tau[intervals][:, upper].ravel(), v[:, 6 + upper].ravel()])
 
 
 def limit_upper_body(
-    robot: Robot, t: np.ndarray, q: np.ndarray, contact: np.ndarray, impacts: np.ndarray, margin: float = MARGIN
+    robot: Robot, t: np.ndarray, q: np.ndarray, *, contact: np.ndarray, impacts: np.ndarray, margin: float = MARGIN
 ) -> tuple[np.ndarray, dict]:
     """``q`` with the upper body's angles changed as little and as smoothly as possible so
     they stay within their position limits, and their inverse-dynamics torques and

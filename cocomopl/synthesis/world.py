@@ -40,7 +40,7 @@ def _segments(step: PredictedStep) -> list[tuple[int, int]]:
     return out
 
 
-def _sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Real times, signals and phase index of a step sampled at most ``dt`` apart.
 
     Each impact-free part gets its own cubic spline, so velocities may jump at a touchdown
@@ -117,9 +117,10 @@ def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp)
     """
     upper = 7 + robot.upper_body_joint_indices()
     filtered = q[:, upper]
-    q, first = limit_upper_body(robot, t, q, contact, impacts)
-    q, _, _ = dynamics_filter(robot, t, q, contact, impacts, ground, zmp, passes=REFILTER_PASSES)
-    q, last = limit_upper_body(robot, t, q, contact, impacts)
+    q, first = limit_upper_body(robot, t, q, contact=contact, impacts=impacts)
+    q, _, _ = dynamics_filter(robot, t, q, contact=contact, impacts=impacts, ground=ground, zmp_ref=zmp,
+                              passes=REFILTER_PASSES)
+    q, last = limit_upper_body(robot, t, q, contact=contact, impacts=impacts)
     report = {k: v for k, v in first.items() if k.endswith("_before")} | {k: v for k, v in last.items() if k.endswith("_after")}
     return q, report | {
         "largest_change_rad": float(np.abs(q[:, upper] - filtered).max()),
@@ -127,7 +128,7 @@ def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp)
     }
 
 
-def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005,
+def place_steps(robot: Robot, steps: list[PredictedStep], *, dt: float = 0.005,
                 soles: dict[str, np.ndarray] | None = None) -> Motion:
     """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds,
     starting from the sole poses ``soles`` (:func:`~cocomopl.gait.footsteps`; default: side
@@ -138,7 +139,7 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005,
     ts, qs, zmps, contacts, phases, starts, impacts, ground = [], [], [], [], [], [], [], []
     offset, count = 0.0, 0
     for k, (step, feet) in enumerate(zip(steps, feet_per_step)):
-        t, values, phase = _sample_step(step, dt)
+        t, values, phase = sample_step(step, dt)
         weights = _anchor_weights(step, t, phase, first=(k == 0))
         plan = phase_plan(step.spec)
         joints, zmp_local, rpy = values[:, :n_joints], values[:, n_joints : n_joints + 3], values[:, n_joints + 3 :]
@@ -157,13 +158,14 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005,
             for s, side in enumerate(SIDES):
                 if weights[j, s] > 0:
                     sole = data.oMf[robot.foot_frames[side]].translation  # in the pelvis frame
-                    position += weights[j, s] * (ground_position(feet, plan, side, phase[j]) - R @ sole)
+                    position += weights[j, s] * (ground_position(feet, plan, side, phase=phase[j]) - R @ sole)
             q[j, :3] = position
             q[j, 3:7] = pin.Quaternion(R).coeffs()
             zmp[j] = position + R @ zmp_local[j]
         contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
         ground += [
-            [flat_placement(*ground_position(feet, plan, side, p)[:2], ground_yaw(feet, plan, side, p)) if c else None
+            [flat_placement(*ground_position(feet, plan, side, phase=p)[:2],
+                            ground_yaw(feet, plan, side, phase=p)) if c else None
              for side, c in zip(SIDES, row)]
             for p, row in zip(phase, contact)
         ]
@@ -181,10 +183,11 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005,
         impacts.append(count - 1)
     t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
     impacts = np.array(impacts[:-1], dtype=int)
-    q, filter_errors, kept = dynamics_filter(robot, t, q, contact, impacts, ground, zmp)
+    q, filter_errors, kept = dynamics_filter(robot, t, q, contact=contact, impacts=impacts, ground=ground, zmp_ref=zmp)
     q, upper_body = _upper_body_within_limits(robot, t, q, contact, impacts, ground, zmp)
     motion = kinematic_motion(
-        robot, t, q, contact, impacts, phases, [s.spec for s in steps], np.array(starts),
+        robot, t, q, contact=contact, impacts=impacts, phases=phases, steps=[s.spec for s in steps],
+        step_starts=np.array(starts),
         meta={
             "producer": "primitives",
             "dynamics_filter_zmp_error_m": filter_errors,
@@ -201,7 +204,8 @@ def place_steps(robot: Robot, steps: list[PredictedStep], dt: float = 0.005,
 
 
 
-def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], step: int, dt: float = 0.005) -> Motion:
+def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], *, step: int,
+                    dt: float = 0.005) -> Motion:
     """``motion`` with the stretch of steps from a start to a stop that holds ``step`` placed
     anew from ``steps``, the whole walk's predicted steps, of which only that stretch changed.
 
@@ -215,7 +219,7 @@ def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], st
     last = next(k for k in range(step, len(specs)) if specs[k].kind == "stop")
     if len(specs) != len(motion.steps) or specs[:first] != motion.steps[:first] or specs[last + 1 :] != motion.steps[last + 1 :]:
         raise ValueError("only the stretch holding the changed step may differ from the motion's steps")
-    stretch = place_steps(robot, steps[first : last + 1], dt, sole_poses(robot, specs)[first])
+    stretch = place_steps(robot, steps[first : last + 1], dt=dt, soles=sole_poses(robot, specs)[first])
     a = int(motion.step_starts[first])
     b = int(motion.step_starts[last + 1]) if last + 1 < len(specs) else motion.n
     t_new = stretch.t + motion.t[a]
