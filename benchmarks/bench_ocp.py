@@ -33,9 +33,9 @@ def dataset_table(path: Path) -> dict:
     motions, attrs = read_motions(path)
     rows = []
     for name, motion in sorted(motions.items()):
-        if motion.meta.get("mirrored"):
+        if motion.solution.mirrored:
             continue
-        solver = motion.meta["solver"]
+        solver = motion.solution.solver
         rows.append(
             {
                 "ocp": name,

@@ -54,7 +54,7 @@ def run_push(task: dict) -> dict:
     force[task["axis"]] = task["force_n"] * task["sign"]
     rollout = simulate(_WORKER["sim"], walk.motion, stabilizer=True, pushes=[Push(task["time_s"], tuple(force))],
                        replanner=recovery)
-    return {**task, "fell": rollout.fell, "replans": rollout.measured.meta.get("recoveries", [])}
+    return {**task, "fell": rollout.fell, "replans": rollout.measured.simulation.recoveries or []}
 
 
 def largest_survived(rows: list[dict], forces: list[float]) -> float:

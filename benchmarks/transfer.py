@@ -85,7 +85,7 @@ def main() -> int:
                 figures = summary(robot, rollout.measured, motion)
                 out["walks"].setdefault(name, {})[setting] = {
                     "fell": rollout.fell, "fall_time_s": rollout.fall_time,
-                    "peak_force_over_weight": figures["peak_force_over_weight"], "mean_torque": figures["mean_torque"]}
+                    "peak_force_over_weight": figures.peak_force_over_weight, "mean_torque": figures.mean_torque}
     if args.json:
         print(json.dumps(out))
         return 0

@@ -135,10 +135,10 @@ def kinematic_motion(
     phases: list,
     steps: list,
     step_starts: np.ndarray,
-    meta: dict,
+    producer: str,
     zmp: np.ndarray | None = None,
 ) -> Motion:
-    """The :class:`Motion` of a kinematic walk: velocities, torques and contact wrenches by
+    """The :class:`Motion` of a kinematic walk by ``producer``: velocities, torques and contact wrenches by
     :func:`inverse_dynamics_with_contacts`; ``zmp`` as given (a reference) or, by default,
     the ZMP of those wrenches."""
     v, tau, wrenches = inverse_dynamics_with_contacts(robot, t, q, contact=contact, impacts=impacts)
@@ -158,5 +158,5 @@ def kinematic_motion(
         step_starts=np.asarray(step_starts, dtype=int),
         joint_names=list(robot.joint_names),
         robot=robot.name,
-        meta=meta,
+        producer=producer,
     )

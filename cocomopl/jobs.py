@@ -438,16 +438,16 @@ def generate_walk_file(request: WalkRequest, out: str | Path, *, command: str | 
     walk = generate_walk(request, progress=progress)
     motion = walk.planned
     provenance = walk_provenance(command, request.model_file(), dataset=request.dataset_file())
-    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": motion.meta["producer"], **provenance})
+    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": motion.producer, **provenance})
     rows = [StepRow(step=s.spec.name, duration_s=s.duration, duration_std_s=float(np.linalg.norm(s.duration_std)),
                     joint_std_max_rad=joint_std_max(walk.model, s), in_support=bool(s.in_support),
                     distance_mm=1000 * s.distance) for s in walk.steps]
     return GenerateReport(
         output=str(out), steps=rows, n_steps=len(rows), duration_s=motion.duration, generation_s=walk.generation_s,
-        placement_s=walk.placement_s, dynamics_filter_zmp_error_m=walk.motion.meta["plan_zmp_error_m"],
-        upper_body_limits=walk.motion.meta["upper_body_limits"],
+        placement_s=walk.placement_s, dynamics_filter_zmp_error_m=walk.motion.plan.plan_zmp_error_m,
+        upper_body_limits=walk.motion.plan.upper_body_limits,
         out_of_support=[r.step for r in rows if not r.in_support], warnings=walk.warnings,
-        footsteps=None if isinstance(request.path, StraightSteps) else walk.motion.meta["footsteps"],
+        footsteps=None if isinstance(request.path, StraightSteps) else walk.motion.plan.footsteps,
         refine=walk.refinement)
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -142,6 +142,106 @@ SAMPLED = ("q", "v", "tau", "wrenches", "contact", "zmp")  # a Motion's arrays w
 TIME_TOLERANCE = 1e-9
 
 
+class _Record:
+    """Typed metadata that a motion file stores in its JSON attribute ``meta`` under the
+    field names, in field order: a field with a default is stored only when it is not None."""
+
+    def as_meta(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if f.default is MISSING or getattr(self, f.name) is not None}
+
+    @classmethod
+    def from_meta(cls, meta: dict):
+        """The record of ``meta``'s keys, removed from it; None (``meta`` unchanged) unless
+        it has every field without a default."""
+        if not all(f.name in meta for f in fields(cls) if f.default is MISSING):
+            return None
+        return cls(**{f.name: meta.pop(f.name) for f in fields(cls) if f.name in meta})
+
+
+@dataclass(frozen=True)
+class PlanRecord(_Record):
+    """How a generated walk was placed (:func:`cocomopl.synthesis.world.place_steps`).
+
+    Attributes
+    ----------
+    dynamics_filter_zmp_error_m : RMS ZMP error (m) of each run of the dynamics filter
+    dynamics_filter_kept_error_m : that of the run kept
+    upper_body_limits : what the upper body's correction into its joint limits did
+    plan_zmp_error_m : RMS error (m) of the placed walk's ZMP from the learned one
+    model : file name of the model that generated the walk
+    lengths_mm : the step lengths (mm) of a straight walk
+    footsteps : the landings of a walk planned on footsteps or goals, as plain data
+    """
+
+    dynamics_filter_zmp_error_m: list
+    dynamics_filter_kept_error_m: float
+    upper_body_limits: dict
+    plan_zmp_error_m: float
+    model: str | None = None
+    lengths_mm: list | None = None
+    footsteps: list | None = None
+
+
+@dataclass(frozen=True)
+class SolutionRecord(_Record):
+    """How an optimal-control motion was solved (:mod:`cocomopl.ocp`).
+
+    Attributes
+    ----------
+    solver : the solver's statistics (iterations, cost, solve time, ...); a list of them,
+        one per step, for a walk of chained or refined steps
+    duration_search : the step durations tried before the one solved
+    mirrored : whether the motion is the mirror image of one solved
+    solved_now : the steps of a chained walk solved for it (the others came from a dataset)
+    refined_from : the producer of the walk that the solution refines
+    """
+
+    solver: dict | list | None
+    duration_search: list | None = None
+    mirrored: bool | None = None
+    solved_now: list | None = None
+    refined_from: str | None = None
+
+
+@dataclass(frozen=True)
+class RolloutRecord(_Record):
+    """How a measured motion was simulated (:func:`cocomopl.sim.rollout.simulate`).
+
+    Attributes
+    ----------
+    reference_producer : the producer of the motion followed
+    stabilizer : whether the stabilizer ran, and ``stabilizer_gains`` its gains
+    reference_cutoff_hz : the reference's low-pass cutoff (Hz; 0 for none)
+    feedforward : whether the reference's torques were fed forward
+    fell : whether the robot fell, and ``fall_time_s`` when (s)
+    timestep_s : the simulator's time step (s)
+    sim_model : the MuJoCo model simulated
+    contact_time_constant_s : the contacts' time constant (s)
+    servos : the servo model's settings
+    pushes : the pushes applied
+    recoveries, reaimed : the replanner's changes of the walk, where one replanned
+    """
+
+    reference_producer: str
+    stabilizer: bool
+    stabilizer_gains: dict | None
+    reference_cutoff_hz: float
+    feedforward: bool
+    fell: bool
+    fall_time_s: float | None
+    timestep_s: float
+    sim_model: str | None
+    contact_time_constant_s: float
+    servos: dict | None
+    pushes: list
+    recoveries: list | None = None
+    reaimed: list | None = None
+
+
+_RECORDS = {"plan": PlanRecord, "solution": SolutionRecord, "simulation": RolloutRecord}
+
+
 @dataclass
 class Motion:
     """A whole-body motion, whoever produced it (OC, primitives, simulator, baseline).
@@ -166,7 +266,10 @@ class Motion:
     impacts : (m,) int, pre-impact sample indices
     steps : list of StepSpec, and ``step_starts`` the first sample of each
     joint_names, robot : the robot the motion is for
-    meta : provenance: producer, solver statistics, versions
+    meta : free-form provenance (a motion file stores it and the fields below as one JSON object)
+    producer : what produced the motion: ``ocp``, ``primitives``, ``mujoco``, ``kajita``, ...
+    plan : how a generated walk was placed, ``solution`` how an OC motion was solved,
+        ``simulation`` how a measured motion was simulated; None where they do not apply
     """
 
     t: np.ndarray
@@ -183,6 +286,10 @@ class Motion:
     joint_names: list
     robot: str
     meta: dict = field(default_factory=dict)
+    producer: str | None = None
+    plan: PlanRecord | None = None
+    solution: SolutionRecord | None = None
+    simulation: RolloutRecord | None = None
 
     @property
     def n(self) -> int:
@@ -195,6 +302,25 @@ class Motion:
     @property
     def name(self) -> str:
         return "+".join(s.name for s in self.steps)
+
+    def meta_json(self) -> dict:
+        """The metadata as a motion file stores it: ``producer``, the records' fields and the
+        free-form ``meta``, in that order."""
+        out = {} if self.producer is None else {"producer": self.producer}
+        for name in _RECORDS:
+            record = getattr(self, name)
+            if record is not None:
+                out.update(record.as_meta())
+        return {**out, **self.meta}
+
+    @staticmethod
+    def split_meta(meta: dict) -> dict:
+        """The keyword arguments of :class:`Motion` of a motion file's metadata ``meta``
+        (:meth:`meta_json`): its known keys as typed fields, the rest as ``meta``."""
+        meta = dict(meta)
+        out = {"producer": meta.pop("producer")} if isinstance(meta.get("producer"), str) else {}
+        out.update((name, record.from_meta(meta)) for name, record in _RECORDS.items())
+        return {**out, "meta": meta}
 
     def kept_samples(self) -> np.ndarray:
         """Indices of the samples without the pre-impact duplicates: a strictly increasing time grid."""

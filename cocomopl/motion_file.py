@@ -24,7 +24,7 @@ import re
 import secrets
 import shutil
 import tempfile
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 import h5py
@@ -364,7 +364,7 @@ def write_motion_group(group: h5py.Group, motion: Motion, signals: dict | None =
     group.attrs["robot"] = motion.robot
     group.attrs["joint_names"] = json.dumps(list(motion.joint_names))
     group.attrs["steps"] = json.dumps([s.as_dict() for s in motion.steps])
-    group.attrs["meta"] = json.dumps(motion.meta)
+    group.attrs["meta"] = json.dumps(motion.meta_json())
     if signals is not None:
         sig = group.create_group("signals")
         for key, value in signals.items():
@@ -425,12 +425,13 @@ def read_motion_group(group: h5py.Group, robot=None, finite: bool = True) -> Mot
     if contact.dtype.kind in "iu" and np.isin(contact, (0, 1)).all():
         arrays["contact"] = contact.astype(bool)
     robot_name = group.attrs.get("robot")
+    meta = _json_attribute(group, "meta")
     motion = Motion(
         phases=_phases(group),
         steps=_steps(group),
         joint_names=_json_attribute(group, "joint_names"),
         robot=robot_name.decode(errors="replace") if isinstance(robot_name, bytes) else robot_name,
-        meta=_json_attribute(group, "meta"),
+        **(Motion.split_meta(meta) if isinstance(meta, dict) else {"meta": meta}),
         **arrays,
     )
     check_motion(motion, robot, finite)
@@ -494,10 +495,8 @@ def file_attrs(f: h5py.File) -> dict:
         if isinstance(value, bytes):
             value = value.decode()
         if isinstance(value, str):
-            try:
+            with suppress(json.JSONDecodeError):
                 value = json.loads(value)
-            except json.JSONDecodeError:
-                pass
         out[key] = value
     return out
 

@@ -3,7 +3,9 @@
 Each type parses one concept and leaves its rule to the one validator of the API (the
 ``check_*`` and ``parse_*`` functions the library calls too), turning its
 :class:`~cocomopl.errors.Error` into argparse's one-line usage error.  The rules on which
-walk options go together live in :mod:`cocomopl.requests`, not here.
+walk options go together live in :mod:`cocomopl.requests`; :func:`walk_request` refuses only
+the options a request has no place for where they would be ignored (``--first-swing`` without
+straight steps, ``--data`` and ``--warm-start`` without ``--refine``).
 """
 
 from __future__ import annotations
@@ -290,8 +292,8 @@ def synthesis_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
     parser.add_argument("--dt", type=positive_float, metavar="S",
                         help=f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})")
-    parser.add_argument("--first-swing", choices=FIRST_SWINGS, default="left",
-                        help="with --lengths-mm: the foot that steps first (default: %(default)s)")
+    parser.add_argument("--first-swing", choices=FIRST_SWINGS,
+                        help=f"with --lengths-mm: the foot that steps first (default: {FIRST_SWINGS[0]})")
     parser.add_argument("--strict", action="store_true", help="refuse steps outside the training data's support")
     parser.add_argument("--refine", action="store_true",
                         help="refine every generated step by the OCP it was learned from (docs/method.md#refinement)")
@@ -308,20 +310,24 @@ def dataset_and_model_options(parser: argparse.ArgumentParser) -> None:
 
 def walk_request(args):
     """The :class:`~cocomopl.requests.WalkRequest` of the options of :func:`synthesis_options`
-    (and ``walk``'s replanner); ``--data`` and ``--warm-start`` say how ``--refine`` solves,
-    and alone they are refused, as they would be ignored."""
+    (and ``walk``'s replanner); ``--data`` and ``--warm-start`` say how ``--refine`` solves
+    and ``--first-swing`` how straight steps start: without those, they are refused, as they
+    would be ignored."""
     from cocomopl.ocp.settings import DEFAULT_WARM_START
-    from cocomopl.requests import Footsteps, Goals, Refinement, StraightSteps, WalkRequest
+    from cocomopl.requests import FIRST_SWINGS, Footsteps, Goals, Refinement, StraightSteps, WalkRequest
 
-    for given, option in ((args.data, "--data"), (args.warm_start, "--warm-start")):
-        if given and not args.refine:
-            raise Error(f"{option} is used only with --refine")
+    straight = args.footsteps is None and args.to is None
+    for given, option, used, needed in ((args.data, "--data", args.refine, "--refine"),
+                                        (args.warm_start, "--warm-start", args.refine, "--refine"),
+                                        (args.first_swing, "--first-swing", straight, "--lengths-mm")):
+        if given and not used:
+            raise Error(f"{option} is used only with {needed}")
     if args.footsteps is not None:
         path = Footsteps(args.footsteps)
     elif args.to is not None:
         path = Goals(args.to)
     else:
-        path = StraightSteps(args.lengths_mm, args.first_swing)
+        path = StraightSteps(args.lengths_mm, args.first_swing or FIRST_SWINGS[0])
     refinement = Refinement(args.data, args.warm_start or DEFAULT_WARM_START) if args.refine else None
     return WalkRequest(path, model=args.model, dt=args.dt, strict=args.strict, refinement=refinement,
                        replanner=getattr(args, "replanner", None))

@@ -39,7 +39,10 @@ from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
 from cocomopl.synthesis.world import place_steps, replace_stretch
 
 if TYPE_CHECKING:  # the simulator is imported where a walk is simulated
+    from cocomopl.analysis.metrics import WalkMetrics
+    from cocomopl.sim.hooks import Hook
     from cocomopl.sim.perturbations import Push
+    from cocomopl.sim.rollout import Rollout
     from cocomopl.sim.servos import ServoSettings
     from cocomopl.sim.stabilizer import StabilizerGains
 
@@ -88,6 +91,8 @@ class SimSettings:
     gains : the stabilizer's :class:`~cocomopl.sim.stabilizer.StabilizerGains`; None: those
         tuned for the motion's generator
     pushes : :class:`~cocomopl.sim.perturbations.Push` forces on the pelvis
+    hooks : further controllers or perturbations (:class:`~cocomopl.sim.hooks.Hook`), called
+        after the pushes in this order
     """
 
     stabilizer: bool = True
@@ -98,6 +103,7 @@ class SimSettings:
     servos: ServoSettings | None = None
     gains: StabilizerGains | None = None
     pushes: tuple[Push, ...] = ()
+    hooks: tuple[Hook, ...] = ()
 
 
 def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
@@ -129,9 +135,9 @@ def reaiming_for(walk: GeneratedWalk, dt: float = PLAN_DT):
 
 
 def _noting_footsteps(motion: Motion, landings: Sequence[Landing]) -> Motion:
-    """``motion`` with the ``landings`` it was planned on in its metadata (the report's and
+    """``motion`` with the ``landings`` it was planned on in its plan record (the report's and
     the JSON's ``footsteps``)."""
-    motion.meta["footsteps"] = [landing.as_dict() for landing in landings]
+    motion.plan = replace(motion.plan, footsteps=[landing.as_dict() for landing in landings])
     return motion
 
 
@@ -190,13 +196,13 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
     started = time.perf_counter()
     motion = place_steps(robot, steps, dt=dt)
     placement_s = time.perf_counter() - started
-    motion.meta["model"] = Path(model_path).name
+    motion.plan = replace(motion.plan, model=Path(model_path).name)
     if isinstance(path, StraightSteps):
-        motion.meta["lengths_mm"] = [1000 * x for x in path.lengths]
+        motion.plan = replace(motion.plan, lengths_mm=[1000 * x for x in path.lengths])
     else:
         _noting_footsteps(motion, landings_of(robot, specs))
     messages = [str(w.message) for w in caught]
-    error = motion.meta["plan_zmp_error_m"]
+    error = motion.plan.plan_zmp_error_m
     if error > FILTER_WARNING_M:
         messages.append(
             f"the dynamics filter left the walk's ZMP {100 * error:.1f} cm RMS from the learned one "
@@ -270,12 +276,13 @@ def simulate_walk(
     progress: bool = False,
     replanner=None,
     goals: Sequence[Goal] = (),
-):
+) -> tuple[Rollout, WalkMetrics]:
     """Simulate ``motion`` in MuJoCo (:func:`rollout_of`, which draws the ``goals`` in its
     video) and measure it.
 
-    Returns the :class:`~cocomopl.sim.rollout.Rollout` and its metrics against the reference
-    (the walk it ended up following, where the ``replanner`` replanned it).
+    Returns the :class:`~cocomopl.sim.rollout.Rollout` and its
+    :class:`~cocomopl.analysis.metrics.WalkMetrics` against the reference (the walk it ended
+    up following, where the ``replanner`` replanned it).
     """
     from cocomopl.analysis.metrics import summary
 
@@ -286,7 +293,7 @@ def simulate_walk(
 def simulation_record(measured: Motion) -> SimulationRecord:
     """How a rollout was simulated, as its measured motion's metadata records it: the
     settings a report carries beside its figures."""
-    return SimulationRecord(**{f: measured.meta[f] for f in SimulationRecord.__dataclass_fields__})
+    return SimulationRecord(**{f: getattr(measured.simulation, f) for f in SimulationRecord.__dataclass_fields__})
 
 
 def rollout_of(
@@ -316,9 +323,9 @@ def rollout_of(
     cutoff = REFERENCE_CUTOFF_HZ if settings.reference_cutoff_hz is None else settings.reference_cutoff_hz
     rollout = simulate(sim, motion, stabilizer=settings.stabilizer, progress=progress, reference_cutoff_hz=cutoff,
                        gains=settings.gains, feedforward=settings.feedforward, servos=settings.servos,
-                       pushes=settings.pushes, replanner=replanner)
+                       pushes=settings.pushes, hooks=settings.hooks, replanner=replanner)
     if video is not None:
-        render_video(sim, rollout.measured.t, rollout.qpos, video, progress=progress,
+        render_video(sim, rollout.measured.t, rollout.qpos, path=video, progress=progress,
                      footsteps=planned_landings(robot, motion), goals=goals)
     return rollout
 
@@ -381,23 +388,23 @@ def walk_report(
         if video:
             files.append(work / "walk.mp4")
         straight = isinstance(request.path, StraightSteps)
-        meta = rollout.measured.meta
+        simulated = rollout.measured.simulation
         report = WalkReport(
             label=request.path.label(),
             folder=str(Path(out_dir)),
             lengths_mm=[1000 * x for x in request.path.lengths] if straight else None,
-            footsteps=None if straight else walk.motion.meta["footsteps"],
+            footsteps=None if straight else walk.motion.plan.footsteps,
             goal=goal_errors(walk.robot, rollout.measured, request.path.poses) if isinstance(request.path, Goals) else None,
             steps=[s.spec.name for s in walk.steps],
             simulation=simulation_record(rollout.measured),
-            pushes=meta["pushes"],
-            recoveries=meta["recoveries"] if request.replanner == "recover" else None,
+            pushes=simulated.pushes,
+            recoveries=simulated.recoveries if request.replanner == "recover" else None,
             reaim=request.replanner == "reaim",
-            reaimed=meta["reaimed"] if request.replanner == "reaim" else None,
+            reaimed=simulated.reaimed if request.replanner == "reaim" else None,
             metrics=metrics,
             generation_s=walk.generation_s,
             placement_s=walk.placement_s,
-            dynamics_filter_zmp_error_m=walk.motion.meta["plan_zmp_error_m"],
+            dynamics_filter_zmp_error_m=walk.motion.plan.plan_zmp_error_m,
             warnings=walk.warnings,
             refine=walk.refinement,
             files=_report_files(out_dir, files, "metrics.json"),
@@ -567,17 +574,17 @@ def _paper_experiment(model_path, dataset_path: Path, *, progress: bool, setting
         "refined_vs_oc": per_measure(figures, "refined", "OC"),
         "refine": refine_summary,
         "metrics": figures,
-        "sim_model": simulated["MP"].meta["sim_model"],
-        "servos": simulated["MP"].meta["servos"],
-        "contact_time_constant_s": simulated["MP"].meta["contact_time_constant_s"],
-        "reference_cutoff_hz": simulated["MP"].meta["reference_cutoff_hz"],
+        "sim_model": simulated["MP"].simulation.sim_model,
+        "servos": simulated["MP"].simulation.servos,
+        "contact_time_constant_s": simulated["MP"].simulation.contact_time_constant_s,
+        "reference_cutoff_hz": simulated["MP"].simulation.reference_cutoff_hz,
         "kajita": {key: kajita.meta[key] for key in (
             "pelvis_drop", "pelvis_drop_searched", "com_height_m", "swing_height", "zmp_smoothing", "second_stage",
             "first_stage_zmp_reference_rms_m", "zmp_reference_rms_m", "walking_span_s")} | {"variant": kajita_variant},
         "m_opt_steps": len(m_opt.steps),
-        "m_opt_solved_now": m_opt.meta["solved_now"],
+        "m_opt_solved_now": m_opt.solution.solved_now,
         "m_opt_solve_s": solve_s,
-        "m_opt_solver": m_opt.meta.get("solver"),
+        "m_opt_solver": m_opt.solution.solver,
         "generation_s": walk.generation_s,
     }
     return robot, planned, simulated, payload

@@ -2,10 +2,10 @@
 
 :meth:`Result.to_json` gives the object ``--json`` prints (and report folders write), its
 keys in the order of the fields; :meth:`Result.to_table` the text the command prints by
-default; :attr:`Result.exit_code` the command's exit status.  Figures computed elsewhere
-with their own open set of names (the simulation metrics of
-:func:`~cocomopl.analysis.metrics.summary`, the dataset check's worst values, ...) stay
-dictionaries inside these fields.
+default; :attr:`Result.exit_code` the command's exit status.  Any field value with a
+``to_json`` method (a result, :class:`~cocomopl.analysis.metrics.WalkMetrics`) is written
+as its JSON.  Figures computed elsewhere with their own open set of names (the dataset
+check's worst values, ...) stay dictionaries inside these fields.
 """
 
 from __future__ import annotations
@@ -13,9 +13,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cocomopl.errors import plural
+
+if TYPE_CHECKING:
+    from cocomopl.analysis.metrics import WalkMetrics
 
 # field metadata: OPTIONAL fields are left out of the JSON when None; INLINE fields (dicts or
 # results) are spliced into it; HIDDEN fields are for the table only
@@ -23,7 +26,7 @@ OPTIONAL, INLINE, HIDDEN = {"optional": True}, {"inline": True}, {"hidden": True
 
 
 def _plain(value: Any) -> Any:
-    if isinstance(value, Result):
+    if callable(getattr(value, "to_json", None)):
         return value.to_json()
     if isinstance(value, list | tuple):
         return [_plain(v) for v in value]
@@ -77,11 +80,10 @@ METRIC_ROWS = (
 )
 
 
-def metrics_table(metrics: dict) -> str:
+def metrics_table(metrics: WalkMetrics) -> str:
     """The main simulation metrics (:func:`~cocomopl.analysis.metrics.summary`), one per line."""
-    return "\n".join(
-        f"{label:38s} {'-' if metrics.get(key) is None else fmt.format(metrics[key])}" for key, label, fmt in METRIC_ROWS
-    )
+    values = ((label, fmt, getattr(metrics, name)) for name, label, fmt in METRIC_ROWS)
+    return "\n".join(f"{label:38s} {'-' if value is None else fmt.format(value)}" for label, fmt, value in values)
 
 
 def selection_table(rows: list[dict], best: tuple[str, int] | None) -> list[str]:
@@ -411,14 +413,14 @@ class SimulateReport(Result):
 
     output: str
     simulation: SimulationRecord = field(metadata=INLINE)
-    metrics: dict = field(metadata=INLINE)
+    metrics: WalkMetrics = field(metadata=INLINE)
 
     def to_table(self) -> str:
         return metrics_table(self.metrics) + f"\nwrote {self.output}"
 
     @property
     def exit_code(self) -> int:
-        return 1 if self.metrics["fell"] else 0
+        return 1 if self.metrics.fell else 0
 
 
 def _recovery_line(changes: list[dict]) -> str:
@@ -453,7 +455,7 @@ class WalkReport(Result):
     recoveries: list[dict] | None = field(metadata=OPTIONAL)  # with recovery by stepping
     reaim: bool
     reaimed: list[dict] | None = field(metadata=OPTIONAL)  # with footstep re-aiming
-    metrics: dict = field(metadata=INLINE)
+    metrics: WalkMetrics = field(metadata=INLINE)
     generation_s: float
     placement_s: float
     dynamics_filter_zmp_error_m: float
@@ -481,7 +483,7 @@ class WalkReport(Result):
 
     @property
     def exit_code(self) -> int:
-        return 1 if self.metrics["fell"] else 0
+        return 1 if self.metrics.fell else 0
 
 
 @dataclass

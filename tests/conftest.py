@@ -83,7 +83,7 @@ def assert_one_line_error(result: subprocess.CompletedProcess, *words: str) -> N
         assert word in lines[0], lines[0]
 
 
-def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=None) -> Motion:
+def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=()) -> Motion:
     """A motion on the time grid ``t``; unspecified parts: standing still in the reference
     posture, zero torques, no force, ZMP at the origin."""
     n = len(t)
@@ -104,7 +104,6 @@ def synthetic(robot, t, q=None, tau=None, fz=None, zmp=None, impacts=(), meta=No
         step_starts=np.array([0]),
         joint_names=list(robot.joint_names),
         robot=robot.name,
-        meta=meta or {},
     )
 
 
@@ -125,7 +124,7 @@ def standing(robot):
             tau=np.zeros((n, robot.nu)), wrenches=np.zeros((n, 2, 6)), contact=np.ones((n, 2), bool),
             zmp=np.zeros((n, 3)), phases=[("ds", 0, 1)], impacts=np.zeros(0, int), steps=[],
             step_starts=np.zeros(0, int), joint_names=list(robot.joint_names), robot=robot.name,
-            meta={"producer": "test"},
+            producer="test",
         )
 
     return motion

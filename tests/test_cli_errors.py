@@ -10,6 +10,7 @@ from cocomopl.cli import main
 from conftest import assert_one_line_error, run_cli
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "lengths, words",
     [
@@ -37,12 +38,14 @@ def test_extra_transition_between_untrained_lengths(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_length_beyond_the_robots_reach(tmp_path):
     result = run_cli("dataset", "generate", "--lengths-mm", "150,700", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "700 mm", "beyond talos's reach")
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_stance_the_robot_cannot_take(tmp_path):
     """Romeo's description sets no reach: inverse kinematics finds its legs too short."""
     result = run_cli("dataset", "generate", "--robot", "romeo", "--lengths-mm", "780", "--out", str(tmp_path / "d.h5"))
@@ -50,12 +53,29 @@ def test_stance_the_robot_cannot_take(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("command, path", [
+    (["walk", "--no-video"], ["--to", "1,0,0"]),
+    (["generate"], ["--to", "1,0,0"]),
+    (["generate"], ["--footsteps", "plan.csv"]),
+])
+def test_first_swing_is_refused_where_the_footsteps_are_given_or_planned(tmp_path, command, path):
+    (tmp_path / "plan.csv").write_text("x_m,y_m,yaw_deg,side\n0,0.085,0,left\n0,-0.085,0,right\n0.2,0.085,0,left\n")
+    out = tmp_path / "out"
+    path = [str(tmp_path / p) if p.endswith(".csv") else p for p in path]
+    result = run_cli(*command, *path, "--first-swing", "right", "--out", str(out))
+    assert_one_line_error(result, "--first-swing is used only with --lengths-mm")
+    assert not out.exists()
+
+
+@pytest.mark.slow
 def test_unknown_robot(tmp_path):
     result = run_cli("dataset", "generate", "--robot", "wall-e", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "unknown robot", "wall-e")
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_missing_urdf(tmp_path):
     desc = tmp_path / "bot.json"
     desc.write_text('{"name": "bot", "urdf": "nowhere.urdf", "feet": {}, "sole": {}, "pelvis": "base"}')
@@ -64,6 +84,7 @@ def test_missing_urdf(tmp_path):
     assert not (tmp_path / "d.h5").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "option",
     [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"], ["--load-transfer-weight", "-0.001"], ["--min-knee-flexion-rad", "-0.1"]],
@@ -74,23 +95,27 @@ def test_bad_numeric_options(tmp_path, option):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_knee_bend_beyond_the_knee_limits(tmp_path):
     result = run_cli("dataset", "generate", "--min-knee-flexion-rad", "3", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "beyond talos's knee limits")
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_unwritable_output():
     result = run_cli("dataset", "generate", "--lengths-mm", "200", "--out", "/proc/cocomopl/d.h5")
     assert_one_line_error(result, "cannot create the folder of --out /proc/cocomopl/d.h5")
 
 
+@pytest.mark.slow
 def test_unreachable_scheduler(tmp_path):
     result = run_cli("dataset", "generate", "--lengths-mm", "200", "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "Dask scheduler")
     assert list(tmp_path.iterdir()) == []  # not even the working folder of the parts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["info", "check"])
 def test_unreadable_files(tmp_path, small_dataset, command):
     missing = tmp_path / "missing.h5"
@@ -110,12 +135,14 @@ def test_unreadable_files(tmp_path, small_dataset, command):
     assert_one_line_error(run_cli("dataset", command, str(tmp_path)), "directory")
 
 
+@pytest.mark.slow
 def test_plot_unknown_motion(small_dataset, tmp_path):
     result = run_cli("plot", str(small_dataset), "--motion", "nope", "--out", str(tmp_path / "p"))
     assert_one_line_error(result, "no motion 'nope'")
     assert not (tmp_path / "p").exists()
 
 
+@pytest.mark.slow
 def test_plot_writes_four_pngs(small_dataset, tmp_path, capsys):
     assert main(["plot", str(small_dataset), "--motion", "cyclic_200_L", "--out", str(tmp_path / "p")]) == 0
     files = sorted(p.name for p in (tmp_path / "p").iterdir() if p.suffix == ".png")
@@ -125,6 +152,7 @@ def test_plot_writes_four_pngs(small_dataset, tmp_path, capsys):
         assert (tmp_path / "p" / name).read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow
 def test_every_error_has_the_one_prefix():
     for args in (["walk", "--dt", "x"], ["model", "info", "--bogus"], ["export"], ["nope"]):
         result = run_cli(*args)
@@ -186,6 +214,7 @@ def test_a_missing_extra_is_named_in_one_line(monkeypatch, tmp_path, capsys, mis
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("option, words", [
     (["--sim-model", "missing.xml"], ["--sim-model", "no file"]),
     (["--sim-model", "bad.xml"], ["bad.xml", "not a MuJoCo model"]),
@@ -220,6 +249,7 @@ def test_a_negative_value_is_a_value_not_an_option():
     assert args.to == [(-0.6, 0.3, math.radians(45))]
 
 
+@pytest.mark.slow
 def test_a_negative_length_gets_the_same_line_as_written_with_an_equals_sign(tmp_path):
     spaced = run_cli("generate", "--lengths-mm", "-250,250,250", "--out", str(tmp_path / "w.h5"))
     joined = run_cli("generate", "--lengths-mm=-250,250,250", "--out", str(tmp_path / "w.h5"))
@@ -241,6 +271,7 @@ def test_help_never_breaks_an_anchor_or_a_path(capsys, monkeypatch):
     assert "docs/method.md#footstep-planner" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_robot_names_are_case_insensitive(tmp_path):
     result = run_cli("dataset", "generate", "--robot", "TALOS", "--lengths-mm", "150,700", "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "700 mm", "beyond talos's reach")  # Talos, not an unknown robot
@@ -267,6 +298,7 @@ runpy.run_module("cocomopl", run_name="__main__", alter_sys=True)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", ["argparse", "numpy", "cocomopl.pipeline"])
 def test_ctrl_c_while_the_libraries_load_is_one_line(tmp_path, module):
     import subprocess

@@ -26,10 +26,11 @@ def walks(robot):
     the same walk with its prelude and postlude cut off, as a generated walk would be."""
     kajita = kajita_walk(robot, SPECS, dt=0.05, settings=KajitaSettings(pelvis_drop=0.0))
     start, end = kajita.meta["walking_span_s"]
-    bare = dataclasses.replace(metrics.windowed(kajita, start, end), meta={"producer": "test"})
+    bare = dataclasses.replace(metrics.windowed(kajita, start, end), producer="test", meta={})
     return {"Kajita": kajita, "bare": bare}
 
 
+@pytest.mark.slow
 def test_the_window_is_where_all_walks_walk(walks):
     kajita, bare = walks["Kajita"], walks["bare"]
     assert kajita.t[0] < 0.0 and kajita.t[-1] > kajita.meta["walking_span_s"][1]  # it stands before and after
@@ -43,6 +44,7 @@ def test_the_window_is_where_all_walks_walk(walks):
         common_window({"a": shorter, "b": later})
 
 
+@pytest.mark.slow
 def test_every_walk_is_measured_over_the_same_window(robot, walks):
     window = common_window(walks)
     # the plans stand in for their rollouts: what is measured is the window, not the simulator
@@ -70,6 +72,7 @@ def test_per_measure_says_which_walk_is_lower():
     assert set(out) == set(MEASURES)
 
 
+@pytest.mark.slow
 def test_windowed_motion_is_a_motion(walks):
     inside = metrics.windowed(walks["Kajita"], *walks["Kajita"].meta["walking_span_s"])
     assert np.all(np.diff(inside.t) >= 0) and inside.step_starts[0] == 0

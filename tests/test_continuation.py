@@ -11,7 +11,7 @@ import pytest
 from cocomopl.dataset import generate as module
 from cocomopl.dataset.generate import JobResult, solve_by_continuation
 from cocomopl.errors import Error
-from cocomopl.motion import StepSpec
+from cocomopl.motion import SolutionRecord, StepSpec
 from cocomopl.ocp.settings import OCPSettings
 
 
@@ -26,7 +26,7 @@ class InlineExecutor(cf.Executor):
 
 class FakeMotion:
     def __init__(self, cost, q):
-        self.meta = {"solver": {"cost": cost}}
+        self.solution = SolutionRecord(solver={"cost": cost})
         self.q = q
 
 
@@ -51,7 +51,7 @@ def test_each_sweep_continues_from_its_last_walk_and_each_length_keeps_the_cheap
     assert (0.2, 0.25) in calls and (0.15, 0.2) in calls  # down
     assert len(calls) == 6
     # each length keeps its cheaper sweep and records both
-    costs = {L: next(iter(r.motions.values())).meta["solver"]["cost"] for r in kept
+    costs = {L: next(iter(r.motions.values())).solution.solver["cost"] for r in kept
              for L in [next(iter(r.motions)).start_length]}
     assert costs == {0.15: 1.0, 0.2: 1.0, 0.25: 5.0}
     assert set(record) == {"150", "200", "250"}

@@ -137,6 +137,7 @@ def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
     assert "inverse_dynamics_residual" in report["failures"]
 
 
+@pytest.mark.slow
 def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset, robot):
     """A run killed (SIGKILL) while it solves leaves the steps saved before it untouched and
     writes no dataset; the same run again reuses them and solves only the rest.  The saved
@@ -186,6 +187,7 @@ def test_resume_after_kill_recomputes_nothing_finished(tmp_path, small_dataset, 
         np.testing.assert_array_equal(motions[name].q, solved[name].q)
 
 
+@pytest.mark.slow
 def test_dask_cluster_path(tmp_path, small_dataset, robot, capsys):
     """The OCPs run on a Dask cluster.  The small dataset's cyclic and stop steps are left
     as parts of an interrupted run, and its cyclic step copied over the start step's part:
@@ -219,6 +221,7 @@ def test_generate_help_states_the_default_settings(capsys):
     assert f"(default: {defaults.min_knee_flexion:g};" in text
 
 
+@pytest.mark.slow
 def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
     """The dataset that ships in the package: made by the project's command with the default
     training set (32 OCPs, 64 motions with their mirror images), every check passing."""

@@ -73,7 +73,7 @@ def _two_motions(motions, attrs):
 
 def _no_solver_statistics(motions, attrs):
     motion = motions[CYCLIC.name]
-    motion.meta = {"producer": "ocp"}
+    motion.solution = None
     return {CYCLIC.name: motion}, attrs
 
 
@@ -134,6 +134,7 @@ def test_a_damaged_part_is_solved_again(tmp_path, small_dataset, robot, capsys, 
     assert not part.exists()
 
 
+@pytest.mark.slow
 def test_no_converged_ocp_writes_nothing(tmp_path):
     """Knots longer than the phases: no OCP converges, and the run refuses to write a
     dataset of no motion; a file already there stays, and no working folder is left."""
@@ -145,6 +146,7 @@ def test_no_converged_ocp_writes_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == [out]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("saved", [False, True], ids=["nothing saved", "two parts saved"])
 @pytest.mark.parametrize("stop", [KeyboardInterrupt, RuntimeError], ids=["interrupted", "failed"])
 def test_an_interrupted_run_keeps_its_parts_but_no_empty_folder(tmp_path, small_dataset, robot, monkeypatch, saved, stop):
@@ -168,6 +170,7 @@ def test_an_interrupted_run_keeps_its_parts_but_no_empty_folder(tmp_path, small_
     assert {p.name: p.stat().st_mtime_ns for p in parts.glob("*")} == before
 
 
+@pytest.mark.slow
 def test_an_unreachable_scheduler_leaves_nothing(tmp_path, monkeypatch, capsys):
     pytest.importorskip("dask.distributed")
     from cocomopl.dataset import generate as module

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from importlib.metadata import version
 
+import pytest
+
 CONTACT_EXERCISE = r"""
 import numpy as np, crocoddyl, pinocchio as pin
 from cocomopl.robot import Robot
@@ -37,6 +39,7 @@ def test_pinned_versions_are_installed():
     assert version("crocoddyl") == "3.2.1"
 
 
+@pytest.mark.slow
 def test_contact_dynamics_run_without_crashing():
     result = subprocess.run([sys.executable, "-c", CONTACT_EXERCISE], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, f"exit {result.returncode}: {result.stderr[-2000:]}"

@@ -42,6 +42,7 @@ def _gradient(params: dict, data) -> dict:
     return {k: np.asarray(v) for k, v in grad.items()}
 
 
+@pytest.mark.slow
 def test_the_bound_never_falls_over_the_rounds(problem):
     X, mask, d2, tau, weights = problem
     result = em.maximise_bound_em(X, mask, d2, tau=tau, S=S, kernel=KERNEL, max_rounds=8, signal_weights=weights)
@@ -52,6 +53,7 @@ def test_the_bound_never_falls_over_the_rounds(problem):
     assert result["bound"] > joint["bound"]
 
 
+@pytest.mark.slow
 def test_each_closed_form_update_is_a_stationary_point(problem):
     q, hyper, A, B, data, start = _start(problem)
     mask = data.mask
@@ -95,6 +97,7 @@ def test_the_m_step_cannot_lower_the_bound_and_moves_the_time_kernels(problem):
     assert np.all((new["log_eta_w"] >= LOG_BOUNDS["log_eta_w"][0]) & (new["log_eta_w"] <= LOG_BOUNDS["log_eta_w"][1]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("xp", [np, jnp], ids=["numpy", "jax"])
 def test_slot_algebra_at_each_types_size_equals_the_dense_algebra(xp):
     """Types of 3, 7, 3 and 5 steps padded to 7 slots: Cholesky factors and solves taken per

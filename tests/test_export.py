@@ -51,6 +51,7 @@ def bumped(motion, joint: int, height: float, t0: float, width: float = 0.4):
     return dataclasses.replace(motion, q=q)
 
 
+@pytest.mark.slow
 def test_seqplay_files_round_trip(robot, walk, tmp_path):
     files, _ = export_motion(robot, walk, "seqplay", prefix=tmp_path / "walk")
     assert [f.suffix for f in files] == [".pos", ".zmp", ".hip", ".waist"]
@@ -76,6 +77,7 @@ def read_table(path):
     return header, np.array(rows, dtype=float)
 
 
+@pytest.mark.slow
 def test_csv_names_its_columns_with_units(robot, walk, tmp_path):
     (path,), _ = export_motion(robot, walk, "csv", prefix=tmp_path / "walk")
     header, values = read_table(path)
@@ -88,6 +90,7 @@ def test_csv_names_its_columns_with_units(robot, walk, tmp_path):
     assert len(header) == 1 + 3 * robot.nu + 9 + 6 + 6 + 2 + 3 + 12 and values.shape[1] == len(header)
 
 
+@pytest.mark.slow
 def test_csv_velocities_and_torques_are_those_of_the_written_angles(robot, walk, tmp_path):
     (path,), report = export_motion(robot, walk, "csv", prefix=tmp_path / "walk")
     header, values = read_table(path)
@@ -109,6 +112,7 @@ def test_csv_velocities_and_torques_are_those_of_the_written_angles(robot, walk,
         assert rows.any() and np.abs(forces[rows] - walk.wrenches[keep[k], :, :3]).max() < 1e-5
 
 
+@pytest.mark.slow
 def test_export_into_an_unwritable_folder_raises_and_writes_nothing(robot, walk, tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("")
@@ -117,6 +121,7 @@ def test_export_into_an_unwritable_folder_raises_and_writes_nothing(robot, walk,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]
 
 
+@pytest.mark.slow
 def test_a_generated_walk_passes_the_gate_with_margins(robot, walk):
     reasons, report = check_safe(robot, written(robot, walk))
     assert reasons == []
@@ -126,6 +131,7 @@ def test_a_generated_walk_passes_the_gate_with_margins(robot, walk):
     assert report["joint_velocity_ratio"]["value"] <= 1.0 and report["samples"] > 500
 
 
+@pytest.mark.slow
 def test_the_gate_names_a_joint_beyond_its_limit(robot, walk):
     knee = robot.joint_names.index("leg_left_4_joint")
     q = walk.q.copy()
@@ -134,6 +140,7 @@ def test_the_gate_names_a_joint_beyond_its_limit(robot, walk):
     assert any("leg_left_4_joint goes 0.200 rad beyond its limits" in r for r in reasons)
 
 
+@pytest.mark.slow
 def test_stored_velocities_and_torques_do_not_fool_the_gate(robot, walk):
     """The gate recomputes both from the written angles: zeroing the stored ones changes nothing."""
     quiet = dataclasses.replace(walk, v=np.zeros_like(walk.v), tau=np.zeros_like(walk.tau))
@@ -144,12 +151,14 @@ def test_stored_velocities_and_torques_do_not_fool_the_gate(robot, walk):
     assert any("arm_left_4_joint" in r and ("velocity" in r or "torque" in r) for r in reasons)
 
 
+@pytest.mark.slow
 def test_the_gate_sees_feet_that_collide_on_the_ground(robot, walk):
     crossed = double_support_posture(robot, (0.0, 0.03), (0.0, -0.03))  # soles 6 cm apart: they overlap
     reasons, _ = check_safe(robot, written(robot, dataclasses.replace(walk, q=np.stack([crossed] * walk.n))))
     assert any("feet" in r for r in reasons)
 
 
+@pytest.mark.slow
 def test_the_gate_sees_a_swing_foot_that_hits_the_stance_foot_in_the_air(robot, walk):
     hip_roll = robot.joint_names.index("leg_left_2_joint")
     first_left_swing = walk.phases[1]
@@ -161,6 +170,7 @@ def test_the_gate_sees_a_swing_foot_that_hits_the_stance_foot_in_the_air(robot, 
     assert sole_placements(robot, swept.q[k : k + 1])[0, 0, 2] > 0.01  # not a check in the ground plane only
 
 
+@pytest.mark.slow
 def test_nan_is_never_exported_even_when_forced(robot, walk, tmp_path):
     q = walk.q.copy()
     q[40, 7 + 3] = np.nan
@@ -169,6 +179,7 @@ def test_nan_is_never_exported_even_when_forced(robot, walk, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_what_is_exported_passes_the_gate_read_back(robot, walk, tmp_path, seed):
     """Property: a written file holds no NaN or Inf and no sample the gate, run again on the
@@ -187,6 +198,7 @@ def test_what_is_exported_passes_the_gate_read_back(robot, walk, tmp_path, seed)
     assert check_safe(robot, read_csv(text, robot.joint_names))[0] == []
 
 
+@pytest.mark.slow
 def test_cli_refuses_unsafe_unless_forced_and_names_the_robot_it_checks(robot, walk, tmp_path):
     source = tmp_path / "unsafe.h5"
     knee = robot.joint_names.index("leg_left_4_joint")
@@ -202,12 +214,14 @@ def test_cli_refuses_unsafe_unless_forced_and_names_the_robot_it_checks(robot, w
     assert_one_line_error(other, "talos", "romeo")
 
 
+@pytest.mark.slow
 def test_cli_prints_what_the_gate_checked(walk_file, tmp_path):
     done = run_cli("export", str(walk_file), "--format", "csv", "--out", str(tmp_path / "walk"))
     assert done.returncode == 0, done.stderr
     assert "safety gate passed: checked" in done.stdout and "mm inside the support polygon" in done.stdout
 
 
+@pytest.mark.slow
 def test_cli_bad_format_missing_file_unwritable_folder(walk_file, tmp_path):
     out = str(tmp_path / "walk")
     assert_one_line_error(run_cli("export", str(walk_file), "--format", "bvh", "--out", out), "bvh")

@@ -71,11 +71,13 @@ def test_joint_groups_split_the_joints(robot, split):
     assert all(steps.signal_names[i].startswith("arm") for i in groups["arms"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lengths", ["150", "100", "175,450"])
 def test_probe_lengths_off_the_trained_range_get_one_line(lengths):
     assert_one_line_error(run_cli("dataset", "family", "--lengths-mm", lengths), "between")
 
 
+@pytest.mark.slow
 def test_a_probes_file_that_cannot_be_written_gets_one_line_naming_its_option(tmp_path):
     result = run_cli("dataset", "family", "--lengths-mm", "175", "--probes-out", str(tmp_path))
     assert_one_line_error(result, "--probes-out", "is a directory")

@@ -136,6 +136,7 @@ def test_the_phases_of_a_turning_stop_close_the_feet_up_parallel(robot):
     assert second.yaw_to == pytest.approx(landed[2])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("footstep", [(0.2, 0.0, 20.0), (0.0, 0.12, 0.0), (-0.12, 0.0, 0.0)],
                          ids=["turning", "sideways", "backward"])
 def test_a_start_step_turns_side_steps_or_steps_back_and_its_mirror_image_the_other_way(robot, footstep):

@@ -116,6 +116,7 @@ def test_a_budget_it_cannot_spend_is_refused(budget, words):
         check_budget(budget, TRAINED)
 
 
+@pytest.mark.slow
 def test_the_models_walk_lies_on_the_warm_up_walks_knots_from_rest_to_its_footsteps(robot):
     import pinocchio as pin
 
@@ -155,6 +156,7 @@ def test_steps_known_from_the_dataset_being_grown_are_not_solved_again(small_dat
         np.testing.assert_array_equal(again[name].q, motion.q)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("budget", ["0", "1000000"])
 def test_a_bad_budget_gets_one_line_and_writes_nothing(tmp_path, budget):
     out = tmp_path / "grown.h5"
@@ -162,6 +164,7 @@ def test_a_bad_budget_gets_one_line_and_writes_nothing(tmp_path, budget):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_held_out_steps_that_are_not_probes_are_refused(tmp_path):
     out = tmp_path / "grown.h5"
     result = run_cli("dataset", "grow", "--budget", "1", "--held-out", str(BUNDLED_DATASET), "--out", str(out))
@@ -169,6 +172,7 @@ def test_held_out_steps_that_are_not_probes_are_refused(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_missing_model_file_is_refused(small_dataset, tmp_path):
     out = tmp_path / "grown.h5"
     result = run_cli("dataset", "grow", str(small_dataset), "--model", str(tmp_path / "missing.npz"), "--budget", "1",
@@ -177,6 +181,7 @@ def test_a_missing_model_file_is_refused(small_dataset, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_model_of_another_robot_is_refused_before_any_solving(tmp_path):
     from cocomopl.primitives.model_file import save_model
 

@@ -169,6 +169,7 @@ def _last_motion(path: Path) -> str:
         return max(f["motions"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("where", ["signals/values", "q"])
 def test_dataset_check_fails_a_nan_that_is_not_in_the_first_motion(where, dataset_copy, tmp_path, capsys):
     bad = tmp_path / "bad.h5"
@@ -188,6 +189,7 @@ def test_dataset_check_fails_a_nan_that_is_not_in_the_first_motion(where, datase
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5"]
 
 
+@pytest.mark.slow
 def test_a_dataset_whose_motion_is_fine_but_fails_the_check_is_refused_by_reproduce(dataset_copy, tmp_path, capsys):
     bad = tmp_path / "bad.h5"
     shutil.copy(dataset_copy, bad)
@@ -219,6 +221,7 @@ def test_a_dataset_with_wrong_attributes_is_refused(key, value, dataset_copy, tm
     assert_refused(code, err, "bad.h5")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv, words", [
     (["generate", "--lengths-mm", "١٥٠,١٥٠"], ["ASCII"]),
     (["generate", "--dt", "1e-9"], ["--dt", "0.01"]),

@@ -17,7 +17,7 @@ from cocomopl.analysis.report_plots import plot_comparison
 from cocomopl.analysis.viewer import skeleton, write_html_viewer
 from cocomopl.data import BUNDLED_DATASET
 from cocomopl.errors import Error
-from cocomopl.motion import Motion
+from cocomopl.motion import Motion, RolloutRecord
 from cocomopl.motion_file import read_motion
 
 from conftest import synthetic
@@ -41,8 +41,8 @@ def test_touchdown_delays_match_each_planned_touchdown_to_the_same_soles_nearest
     delays = metrics.touchdown_delays(rollout, reference)
     assert np.allclose(np.sort(delays), [-0.02, 0.02])
     summary = metrics.summary(robot, rollout, reference)
-    assert summary["touchdown_delay_median_s"] == pytest.approx(0.0)
-    assert abs(summary["touchdown_delay_max_s"]) == pytest.approx(0.02)
+    assert summary.touchdown_delay_median_s == pytest.approx(0.0)
+    assert abs(summary.touchdown_delay_max_s) == pytest.approx(0.02)
     assert metrics.touchdown_delays(synthetic(robot, t), reference).size == 0
 
 
@@ -111,11 +111,11 @@ def test_summary_means_torques_over_the_reference_span_only(robot):
     t = np.arange(0.0, 1.5 + 1e-9, 0.005)
     measured = synthetic(robot, t + 2.0, tau=np.where(t[:, None] < 1.0, 3.0, 100.0) * np.ones(robot.nu))
     report = metrics.summary(robot, measured, reference)
-    assert report["mean_torque"] == pytest.approx(3.0 / np.sqrt(robot.nu))
-    assert report["mean_torque"] == pytest.approx(metrics.mean_torque(reference))
-    assert report["rms_torque"] == pytest.approx(3.0)
-    assert report["duration_s"] == pytest.approx(1.5)
-    assert metrics.summary(robot, measured)["mean_torque"] > 3.0 / np.sqrt(robot.nu)
+    assert report.mean_torque == pytest.approx(3.0 / np.sqrt(robot.nu))
+    assert report.mean_torque == pytest.approx(metrics.mean_torque(reference))
+    assert report.rms_torque == pytest.approx(3.0)
+    assert report.duration_s == pytest.approx(1.5)
+    assert metrics.summary(robot, measured).mean_torque > 3.0 / np.sqrt(robot.nu)
 
 
 def test_a_window_keeps_a_touchdown_whole_or_not_at_all():
@@ -229,10 +229,10 @@ def test_tracking_error_of_one_offset_joint(robot):
     measured = synthetic(robot, t, q=q)
     reference = synthetic(robot, np.arange(0.0, 0.6 + 1e-9, 0.025))  # shorter: only its span counts
     error = metrics.tracking_error(measured, reference)
-    assert error["max"] == pytest.approx(0.05)
-    assert error["rms"] == pytest.approx(0.05 / np.sqrt(robot.nu))
-    assert error["per_joint_rms"][robot.joint_names[3]] == pytest.approx(0.05)
-    assert error["per_joint_rms"][robot.joint_names[0]] == pytest.approx(0.0)
+    assert error.max == pytest.approx(0.05)
+    assert error.rms == pytest.approx(0.05 / np.sqrt(robot.nu))
+    assert error.per_joint_rms[robot.joint_names[3]] == pytest.approx(0.05)
+    assert error.per_joint_rms[robot.joint_names[0]] == pytest.approx(0.0)
 
 
 # ------------------------------------------------------------------ knees, falls, slip
@@ -252,7 +252,10 @@ def test_knees_are_the_talos_knees_and_their_torques(robot):
 
 def test_falls_by_flag_height_or_tilt(robot):
     t = np.linspace(0.0, 1.0, 11)
-    assert metrics.fell(robot, synthetic(robot, t, meta={"fell": True}))
+    flagged = RolloutRecord(reference_producer="test", stabilizer=False, stabilizer_gains=None, reference_cutoff_hz=0.0,
+                            feedforward=False, fell=True, fall_time_s=0.5, timestep_s=0.001, sim_model=None,
+                            contact_time_constant_s=0.005, servos=None, pushes=[])
+    assert metrics.fell(robot, dataclasses.replace(synthetic(robot, t), simulation=flagged))
     dropped = np.tile(robot.q_ref, (len(t), 1))
     dropped[-1, 2] *= 0.5
     assert metrics.fell(robot, synthetic(robot, t, q=dropped))
@@ -297,8 +300,9 @@ def test_end_balance_margin_of_standing_on_both_or_one_foot(robot):
 # ------------------------------------------------------------------ summary
 def test_summary_of_an_oc_step_against_itself_is_json_and_exact(robot, oc_step):
     report = metrics.summary(robot, oc_step, oc_step)
-    text = json.dumps(report, allow_nan=False)
-    assert json.loads(text) == report
+    payload = report.to_json()
+    assert json.loads(json.dumps(payload, allow_nan=False)) == payload
+    assert list(payload) == [f.name for f in dataclasses.fields(report)]
     for key in (
         "fell",
         "peak_force_over_weight",
@@ -313,21 +317,22 @@ def test_summary_of_an_oc_step_against_itself_is_json_and_exact(robot, oc_step):
         "force_variation_over_weight",
         "total_force_variation_over_weight",
     ):
-        assert key in report
-    assert report["fell"] is False
-    assert report["zmp_rms_error"] == pytest.approx(0.0, abs=1e-12)
-    assert report["tracking_rms_rad"] == 0.0 and report["completed"] == 1.0
-    assert report["mean_torque"] == report["reference_mean_torque"] > 0
+        assert key in payload
+    assert report.fell is False
+    assert report.zmp_rms_error == pytest.approx(0.0, abs=1e-12)
+    assert report.tracking_rms_rad == 0.0 and report.completed == 1.0
+    assert report.mean_torque == report.reference_mean_torque > 0
     # a walking step carries the body weight and a bit more while decelerating it
-    assert 0.9 < report["peak_force_over_weight"] < 2.0
-    assert report["foot_slip_m"] < 0.005  # the OC stance sole is fixed up to the Euler drift
+    assert 0.9 < report.peak_force_over_weight < 2.0
+    assert report.foot_slip_m < 0.005  # the OC stance sole is fixed up to the Euler drift
     # a stop step ends at rest in double support: its CoM is well inside the soles
     stop = read_motion(DATASET, "stop_250_L")
-    assert metrics.summary(robot, stop)["end_balance_margin_m"] > 0.05
-    assert metrics.summary(robot, oc_step)["zmp_rms_error"] is None
+    assert metrics.summary(robot, stop).end_balance_margin_m > 0.05
+    assert metrics.summary(robot, oc_step).zmp_rms_error is None
 
 
 # ------------------------------------------------------------------ plots and viewer
+@pytest.mark.slow
 def test_comparison_plots_are_written(robot, oc_step, tmp_path):
     import matplotlib.image
 

@@ -361,6 +361,7 @@ def test_hand_edited_files(bundled, tmp_path, edit, words):
     assert_refused(path, *words)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["duration_of_hours"])  # the other edits are refused in-process above
 def test_cli_refuses_hand_edited_files(bundled, tmp_path, case):
     bad = edited(bundled, tmp_path / "bad.npz", EDITS[case][0])

@@ -214,6 +214,7 @@ def test_a_continued_cyclic_step_that_needs_the_whole_budget_is_also_solved_afre
                                         "continued": own_cost > 1.0}]
 
 
+@pytest.mark.slow
 def test_a_continued_walk_takes_only_the_upper_body_from_its_neighbour(robot):
     """Continuation's guess: the neighbour's torso, arm and head joints (positions and
     velocities) on this footstep's kinematic guess, whose base and legs carry the soles to
@@ -260,6 +261,7 @@ def _resolved_cyclic(robot, motions, **changes):
                      settings)
 
 
+@pytest.mark.slow
 def test_torque_rate_term_smooths_torques(robot, motions):
     """The paper's torque-rate control, as a penalty: torque jumps between knots shrink."""
     jumps = {}
@@ -269,6 +271,7 @@ def test_torque_rate_term_smooths_torques(robot, motions):
     assert jumps[5e-4] < 0.7 * jumps[0.0], jumps
 
 
+@pytest.mark.slow
 def test_min_knee_flexion_bends_the_knees(robot, motions):
     """The small cyclic step stretches a knee to 0.10 rad; asked for a 0.3 rad bend, the
     least knee angle over its knots rises by more than 0.1 rad.  (The limit is a penalty
@@ -324,6 +327,7 @@ def test_load_shares_hand_the_weight_over_linearly():
     assert load_shares(phases[3:], 0, from_rest=False) == transfer
 
 
+@pytest.mark.slow
 def test_load_transfer_term_hands_the_weight_over_linearly(robot, motions):
     """Without the term, rigid contacts let the optimiser share the weight in double support
     as it likes (and drop a sole's load in a jump at lift-off); with it, the soles' vertical
@@ -342,6 +346,7 @@ def test_load_transfer_term_hands_the_weight_over_linearly(robot, motions):
     assert error[3e-3] < 0.5 * error[0.0], error
 
 
+@pytest.mark.slow
 def test_the_soles_gap_and_its_gradient_agree_with_the_meshes_and_finite_differences(robot):
     import crocoddyl
     import pinocchio as pin

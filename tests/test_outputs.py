@@ -194,6 +194,7 @@ def test_the_current_folder_and_a_file_are_refused_as_report_folders(tmp_path, m
     assert sorted(os.listdir()) == ["a-file"]
 
 
+@pytest.mark.slow
 def test_plot_replaces_its_report_and_says_so(step_file, tmp_path, capsys):
     out = tmp_path / "plots"
     assert cocomopl(capsys, "plot", step_file, "--out", out) == (0, "")
@@ -286,6 +287,7 @@ def test_a_bug_keeps_its_traceback(step_file, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_refused_export_warns_of_no_replacement_and_a_done_one_does(step_file, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     Path("walk.csv").write_text("an earlier export")

@@ -35,6 +35,7 @@ def test_a_perturbed_world_is_a_copy_within_its_bounds(robot, sim):
     assert 0 < np.degrees(np.arccos(-gravity[2] / 9.81)) <= 2.0 * np.sqrt(2) + 1e-9
 
 
+@pytest.mark.slow
 def test_bumps_leave_the_robots_indices_and_it_stands_on_them(robot, sim):
     world = _world(sim, Perturbation(bump_m=0.01))
     bumpy = perturbed(sim, world)
@@ -45,6 +46,7 @@ def test_bumps_leave_the_robots_indices_and_it_stands_on_them(robot, sim):
     assert not rollout.fell
 
 
+@pytest.mark.slow
 def test_a_push_moves_the_robot_and_a_hard_one_topples_it(robot, sim, standing):
     still = standing(2.0)
     quiet = simulate(sim, still, stabilizer=True).measured
@@ -53,7 +55,7 @@ def test_a_push_moves_the_robot_and_a_hard_one_topples_it(robot, sim, standing):
     sideways = np.abs(pushed.measured.q[:, 1] - quiet.q[:, 1]).max()
     assert sideways > 1e-3  # the pelvis went sideways, and came back
     assert abs(pushed.measured.q[-1, 1] - quiet.q[-1, 1]) < 0.5 * sideways
-    assert pushed.measured.meta["pushes"] == [{"time_s": 0.5, "force_n": (0.0, 60.0), "duration_s": 0.1}]
+    assert pushed.measured.simulation.pushes == [{"time_s": 0.5, "force_n": (0.0, 60.0), "duration_s": 0.1}]
     assert simulate(sim, still, stabilizer=True, pushes=[Push(0.5, (0.0, 3000.0))]).fell
 
 
@@ -68,6 +70,7 @@ class Wind(Hook):
             step.data.xfrc_applied[step.sim.base_body, 1] += self.force_n
 
 
+@pytest.mark.slow
 def test_a_perturbation_of_ones_own_is_one_hook(sim, standing):
     still = standing(1.0)
     quiet = simulate(sim, still, stabilizer=True).measured
@@ -79,6 +82,17 @@ def test_a_perturbation_of_ones_own_is_one_hook(sim, standing):
     gust = simulate(sim, still, stabilizer=True, pushes=[Push(0.3, (0.0, 40.0), duration_s=0.2)]).measured
     both = simulate(sim, still, stabilizer=True, hooks=[Wind(0.3, 40.0), Wind(0.5, -40.0)]).measured
     assert np.array_equal(gust.q, both.q)
+
+
+@pytest.mark.slow
+def test_a_hook_reaches_the_rollout_through_the_simulation_settings(robot, sim, standing):
+    from cocomopl.pipeline import SimSettings, simulate_walk
+
+    still = standing(1.0)
+    rollout, metrics = simulate_walk(robot, still, SimSettings(hooks=(Wind(0.3, 40.0),)))
+    direct = simulate(sim, still, stabilizer=True, hooks=[Wind(0.3, 40.0)]).measured
+    assert np.array_equal(rollout.measured.q, direct.q)
+    assert not metrics.fell and metrics.duration_s == pytest.approx(direct.duration)
 
 
 @pytest.mark.parametrize("bounds, message", [

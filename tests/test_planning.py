@@ -75,6 +75,7 @@ def test_a_gait_turning_25_degrees_steps_out_so_the_feet_stay_clear(robot, lengt
     assert steady_gait(length, 0.1, 0.0) == (Footstep(length, 0.1, 0.0), Footstep(length, 0.0, 0.0))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("goal", [(1.0, 0.5, 90.0), (-0.5, 0.0, 0.0), (0.0, 0.4, 0.0), (0.5, -0.3, -45.0), (0.0, 0.0, -90.0),
                                   (0.0, 0.0, 180.0)])
 def test_the_planner_ends_at_the_goal_on_footsteps_in_range_and_clear_of_each_other(robot, goal):
@@ -90,6 +91,7 @@ def test_the_planner_ends_at_the_goal_on_footsteps_in_range_and_clear_of_each_ot
     assert len(specs) >= 2
 
 
+@pytest.mark.slow
 def test_a_walk_through_goals_stops_at_each_and_ends_at_the_last(robot):
     """Around a 1 m square: the plan stops (feet side by side) at every corner, within the
     planner's tolerance, and ends where it started."""
@@ -106,6 +108,7 @@ def test_a_walk_through_goals_stops_at_each_and_ends_at_the_last(robot):
         plan_through(robot, [])
 
 
+@pytest.mark.slow
 def test_the_planner_keeps_to_a_model_s_range_and_says_why_it_cannot(robot):
     specs = plan_to_goal(robot, (1.2, 0.0, 0.0), limits=STRAIGHT_RANGE)
     assert all(s.straight and (s.kind == "stop" or 0.15 <= s.end_length <= 0.4) for s in specs)
@@ -162,6 +165,7 @@ def test_footsteps_a_robot_cannot_take_are_refused_naming_the_landing(robot, row
     assert "\n" not in str(error.value) and all(w in str(error.value) for w in words), str(error.value)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, words", [
     (("generate", "--footsteps", "missing.csv"), ["missing.csv", "no such footstep file"]),
     (("generate", "--footsteps", "plan.csv"), ["row 2", "not a number"]),
@@ -177,6 +181,7 @@ def test_bad_footsteps_or_goals_on_the_command_line_are_one_line_and_write_nothi
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv"]
 
 
+@pytest.mark.slow
 def test_generate_walks_through_goals_given_in_turn(tmp_path):
     result = run_cli("generate", "--to", "0.3,0,0", "--to", "0.3,0,-20", "--out", "walk.h5", "--json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
@@ -187,6 +192,7 @@ def test_generate_walks_through_goals_given_in_turn(tmp_path):
     assert sum(s.startswith("stop") for s in steps) == 2 and sum(s.startswith("start") for s in steps) == 2
 
 
+@pytest.mark.slow
 def test_generate_walks_a_footstep_file_and_reports_its_landings(tmp_path):
     landings = [Landing(0.2, 0.085, 0.0, "left"), Landing(0.4, -0.085, 0.0, "right")]
     write_landings(tmp_path / "plan.csv", landings)
@@ -199,6 +205,7 @@ def test_generate_walks_a_footstep_file_and_reports_its_landings(tmp_path):
     assert [(p["x_m"], p["y_m"], p["side"]) for p in payload["footsteps"]] == [(0.2, 0.085, "left"), (0.4, -0.085, "right")]
 
 
+@pytest.mark.slow
 def test_a_plan_a_further_test_refuses_gives_way_to_the_next(robot):
     goal = (0.6, 0.0, math.radians(60.0))
     first = plan_to_goal(robot, goal)
@@ -215,6 +222,7 @@ def test_a_plan_a_further_test_refuses_gives_way_to_the_next(robot):
         plan_to_goal(robot, goal, accept=lambda specs: False)
 
 
+@pytest.mark.slow
 def test_a_goal_is_planned_within_the_models_support():
     """Seed 6's random goal -0.352, 0.092, -58.8 deg: the bundled model's shortest plan starts
     with a step 0.14 away from its training steps; the planner finds one within."""
@@ -235,6 +243,7 @@ class _NothingSupported:
         return [SimpleNamespace(in_support=False) for _ in specs]
 
 
+@pytest.mark.slow
 def test_a_goal_with_no_supported_plan_gets_the_plan_in_range_unless_strict(robot, monkeypatch):
     from cocomopl.data import BUNDLED_OMNI_MODEL
     from cocomopl.pipeline import plan_in_support

@@ -42,6 +42,7 @@ def saved_figures(monkeypatch) -> dict:
     return figures
 
 
+@pytest.mark.slow
 def test_short_title_names_the_steps_not_each_step(walk, oc_step):
     assert "+" in walk.motion.name  # what the titles used to be
     title = short_title(walk.motion)
@@ -49,6 +50,7 @@ def test_short_title_names_the_steps_not_each_step(walk, oc_step):
     assert short_title(oc_step) == "cyclic_250_L"
 
 
+@pytest.mark.slow
 def test_joint_label_names_leg_joints_by_function(walk):
     robot = walk.robot
     labels = [joint_label(robot, i) for i in range(robot.nu)]
@@ -80,6 +82,7 @@ def _overlaps_an_axes(fig) -> list[str]:
     ]
 
 
+@pytest.mark.slow
 def test_motion_and_comparison_plots_share_conventions(walk, oc_step, saved_figures, tmp_path):
     robot = walk.robot
     paths = plots.plot_motion(robot, walk.motion, tmp_path / "motion")
@@ -117,6 +120,7 @@ def test_motion_and_comparison_plots_share_conventions(walk, oc_step, saved_figu
     assert {name: _overlaps_an_axes(fig) for name, fig in saved_figures.items()} == {name: [] for name in saved_figures}
 
 
+@pytest.mark.slow
 def test_html_viewer_titles_a_walk_shortly_in_the_side_colours(walk, tmp_path):
     page = write_html_viewer(walk.robot, walk.motion, tmp_path / "walk.html").read_text()
     assert f"<title>{short_title(walk.motion)}</title>" in page

@@ -86,6 +86,7 @@ def test_cutting_stops_at_their_middle_touchdown_keeps_every_sample(steps):
         phase_templates(steps, ["cyclic_left"] * 3)
 
 
+@pytest.mark.slow
 def test_gradient_matches_finite_differences(steps):
     import jax
     import jax.numpy as jnp
@@ -171,6 +172,7 @@ def test_a_second_fit_on_other_steps_predicts_as_a_fresh_fit(steps):
             assert (refitted.distance, refitted.in_support) == (new.distance, new.in_support)
 
 
+@pytest.mark.slow
 def test_without_jax_the_model_predicts_and_fit_names_the_extra_to_install():
     """The base install has no JAX: loading and predicting need none, fitting says in one
     line which extra to install, as the command line does."""
@@ -385,6 +387,7 @@ def test_verbose_shows_the_fit_progress_and_quiet_prints_nothing(steps, capfd):
         np.testing.assert_array_equal(model_arrays(shown)[name], value, err_msg=name)
 
 
+@pytest.mark.slow
 def test_placed_walk_is_a_consistent_motion(robot):
     from cocomopl.analysis.feasibility import check_motion
     from cocomopl.data import BUNDLED_MODEL
@@ -416,6 +419,7 @@ def test_placed_walk_is_a_consistent_motion(robot):
     assert soles[-1, :, 0].mean() == pytest.approx(0.75, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_generate_cli_json_and_motion_file(model_file, tmp_path):
     from cocomopl.motion_file import read_motion
 
@@ -429,6 +433,7 @@ def test_generate_cli_json_and_motion_file(model_file, tmp_path):
     assert [s.name for s in motion.steps] == [s["step"] for s in payload["steps"]]
 
 
+@pytest.mark.slow
 def test_generate_cli_strict_and_bad_input(model_file, tmp_path):
     out = tmp_path / "walk.h5"
     strict = run_cli("generate", "--model", str(model_file), "--lengths-mm", "250,600,600", "--out", str(out), "--strict")
@@ -442,6 +447,7 @@ def test_generate_cli_strict_and_bad_input(model_file, tmp_path):
     assert_one_line_error(unwritable, "cannot create")
 
 
+@pytest.mark.slow
 def test_model_info_cli(model_file, tmp_path):
     result = run_cli("model", "info", str(model_file), "--json")
     info = json.loads(result.stdout)
@@ -452,6 +458,7 @@ def test_model_info_cli(model_file, tmp_path):
     assert_one_line_error(run_cli("model", "info", str(bad)), str(bad))
 
 
+@pytest.mark.slow
 def test_train_cli_bad_options(tmp_path):
     assert run_cli("train", "--primitives", "0", "--out", str(tmp_path / "m.npz")).returncode == 2
     assert run_cli("train", "--kernels", "cubic", "--out", str(tmp_path / "m.npz")).returncode == 2

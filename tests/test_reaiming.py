@@ -37,6 +37,7 @@ def stance_of(specs, step):
     return OTHER_SIDE[specs[step].swing_side]
 
 
+@pytest.mark.slow
 def test_a_reaimed_step_lands_where_the_plan_did_from_where_the_robot_stands(walk):
     specs = list(walk.motion.steps)
     targets = landing_targets(walk.robot, specs)
@@ -45,7 +46,7 @@ def test_a_reaimed_step_lands_where_the_plan_did_from_where_the_robot_stands(wal
     planned = sole_poses(walk.robot, specs)[step][side]
     outward = 1.0 if side == "left" else -1.0  # away from the swinging sole: its footstep widens, within the range
     measured = planned + np.array([-0.006, outward * 0.004, math.radians(0.5)])
-    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
+    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step=step, stance=measured, limits=LIMITS)
     assert miss < 1e-9
     poses, landed = sole_poses(walk.robot, new), landing_targets(walk.robot, new)
     # the step before is taken to have landed where the stance sole was measured ...
@@ -62,20 +63,22 @@ def test_a_reaimed_step_lands_where_the_plan_did_from_where_the_robot_stands(wal
             assert b.start_footstep == a.end_footstep
 
 
+@pytest.mark.slow
 def test_a_start_step_is_not_reaimed_and_a_stops_landing_repeats_the_footstep_before_it(walk):
     specs = list(walk.motion.steps)
     targets = landing_targets(walk.robot, specs)
     assert specs[0].kind == "start"
-    assert reaimed_specs(walk.robot, specs, targets, 0, np.zeros(3), LIMITS) is None
+    assert reaimed_specs(walk.robot, specs, targets, step=0, stance=np.zeros(3), limits=LIMITS) is None
     stop = len(specs) - 1
     assert specs[stop].kind == "stop"
     side = stance_of(specs, stop)
     measured = sole_poses(walk.robot, specs)[stop][side] + np.array([0.005, -0.005, 0.0])
-    new, miss, _ = reaimed_specs(walk.robot, specs, targets, stop, measured, LIMITS)
+    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step=stop, stance=measured, limits=LIMITS)
     assert miss > 0.004 and new[stop].kind == "stop"
     assert new[stop].start_footstep == new[stop - 1].end_footstep
 
 
+@pytest.mark.slow
 def test_an_aim_beyond_the_learned_range_corrects_less(walk):
     specs = list(walk.motion.steps)
     targets = landing_targets(walk.robot, specs)
@@ -85,11 +88,12 @@ def test_an_aim_beyond_the_learned_range_corrects_less(walk):
     towards_swing = -1.0 if side == "left" else 1.0
     planned = sole_poses(walk.robot, specs)[step][side]
     measured = planned + np.array([0.0, towards_swing * 0.03, 0.0])
-    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step, measured, LIMITS)
+    new, miss, _ = reaimed_specs(walk.robot, specs, targets, step=step, stance=measured, limits=LIMITS)
     assert miss > 0.01
     assert new[step].end_footstep.width >= LIMITS["width"][0] - 1e-9
 
 
+@pytest.mark.slow
 def test_each_step_is_reaimed_once_after_its_stance_sole_settled(walk):
     asked = []
 
@@ -111,12 +115,13 @@ def test_each_step_is_reaimed_once_after_its_stance_sole_settled(walk):
     assert reaiming.check(float(settled) + 0.01, soles) is None and len(asked) == 1
 
 
+@pytest.mark.slow
 def test_reaiming_without_the_stabilizer_replans_every_step_it_can_in_simulation(walk):
     sim = build_sim_model(walk.robot, visuals=False)
     reaiming = reaiming_for(walk)
     rollout = simulate(sim, walk.motion, stabilizer=False, replanner=reaiming)
     assert not rollout.fell
-    changes = rollout.measured.meta["reaimed"]
+    changes = rollout.measured.simulation.reaimed
     steps = walk.motion.steps
     # every step but the start's is re-aimed once, in order
     assert [c["step"] for c in changes] == [k for k, s in enumerate(steps) if s.kind != "start"]
@@ -125,6 +130,7 @@ def test_reaiming_without_the_stabilizer_replans_every_step_it_can_in_simulation
     assert all(isinstance(s, StepSpec) for s in reaiming.specs)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("option, reaimed", [((), True), (("--no-reaim",), False)])
 def test_a_walk_to_a_goal_is_reaimed_unless_told_not_to(tmp_path, option, reaimed):
     result = run_cli("walk", "--to", "0.2,0,0", "--no-video", "--json", "--out", str(tmp_path / "walk"), *option)
@@ -135,6 +141,7 @@ def test_a_walk_to_a_goal_is_reaimed_unless_told_not_to(tmp_path, option, reaime
         assert [c["step"] for c in payload["reaimed"]] == [k for k, s in enumerate(payload["steps"]) if not s.startswith("start")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("extra", [["--reaim", "--recover"], ["--reaim", "--refine"]])
 def test_reaiming_with_another_replanner_is_refused(tmp_path, extra):
     out = tmp_path / "walk"
@@ -143,6 +150,7 @@ def test_reaiming_with_another_replanner_is_refused(tmp_path, extra):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_stretch_placed_again_joins_the_walk_where_it_stands_still():
     two = generate_walk(WalkRequest(Goals([(0.2, 0.0, 0.0), (0.2, 0.15, 0.0)])))
     motion, specs = two.motion, list(two.motion.steps)

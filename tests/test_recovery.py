@@ -52,6 +52,7 @@ def sole_at(landing) -> tuple[np.ndarray, float]:
     return np.array([landing.x, landing.y]), landing.yaw
 
 
+@pytest.mark.slow
 def test_a_push_the_ankles_cannot_hold_moves_only_that_steps_footstep(walk):
     recovery, asked = recording(walk)
     step = 2
@@ -60,7 +61,7 @@ def test_a_push_the_ankles_cannot_hold_moves_only_that_steps_footstep(walk):
     outward = 1.0 if swing == "left" else -1.0
     stance = recovery.landings[step - 1]
     before = list(recovery.landings)
-    assert recovery.check(start + 0.1 * (end - start), np.array([0.0, outward * 0.2]), 3.4, sole_at(stance)) is not None
+    assert recovery.check(start + 0.1 * (end - start), np.array([0.0, outward * 0.2]), omega=3.4, stance_sole=sole_at(stance)) is not None
     (moved,) = asked
     change = recovery.replanned[0]
     assert change.landing == step and outward * change.shift_m[1] > 0.01
@@ -71,22 +72,24 @@ def test_a_push_the_ankles_cannot_hold_moves_only_that_steps_footstep(walk):
     for a, b in zip(before[step:], moved[step:]):
         assert math.isclose(b.x - a.x, change.shift_m[0], abs_tol=1e-9) and math.isclose(b.y - a.y, change.shift_m[1], abs_tol=1e-9)
     # one change per step
-    assert recovery.check(start + 0.2 * (end - start), np.array([0.0, outward * 0.2]), 3.4, sole_at(stance)) is None
+    assert recovery.check(start + 0.2 * (end - start), np.array([0.0, outward * 0.2]), omega=3.4, stance_sole=sole_at(stance)) is None
 
 
+@pytest.mark.slow
 def test_what_the_stance_sole_can_absorb_or_comes_too_late_changes_nothing(walk):
     recovery, asked = recording(walk)
     start, end = single_support(walk, 1)
     stance = sole_at(recovery.landings[0])
-    assert recovery.check(start + 0.1 * (end - start), np.array([0.0, 0.005]), 3.4, stance) is None
-    assert recovery.check(start + (LATEST + 0.05) * (end - start), np.array([0.0, 0.3]), 3.4, stance) is None
+    assert recovery.check(start + 0.1 * (end - start), np.array([0.0, 0.005]), omega=3.4, stance_sole=stance) is None
+    assert recovery.check(start + (LATEST + 0.05) * (end - start), np.array([0.0, 0.3]), omega=3.4, stance_sole=stance) is None
     # the stop repeats the footstep before it: the last two landings stay
     last = len(recovery.landings) - 2
     start, end = single_support(walk, last)
-    assert recovery.check(start + 0.1 * (end - start), np.array([0.0, 0.3]), 3.4, sole_at(recovery.landings[last - 1])) is None
+    assert recovery.check(start + 0.1 * (end - start), np.array([0.0, 0.3]), omega=3.4, stance_sole=sole_at(recovery.landings[last - 1])) is None
     assert not asked and not recovery.replanned
 
 
+@pytest.mark.slow
 def test_a_pushed_walk_replans_towards_the_push_in_simulation(walk):
     start, _ = single_support(walk, 2)
     swing = recovery_for(walk).landings[2].side
@@ -94,7 +97,7 @@ def test_a_pushed_walk_replans_towards_the_push_in_simulation(walk):
     sim = build_sim_model(walk.robot, visuals=False)
     recovery = recovery_for(walk)
     rollout = simulate(sim, walk.motion, pushes=[Push(start, (0.0, outward * 300.0))], replanner=recovery)
-    changes = rollout.measured.meta["recoveries"]
+    changes = rollout.measured.simulation.recoveries
     assert changes and changes[0]["landing"] == 2 and outward * changes[0]["shift_m"][1] > 0
     # the rollout followed the changed walk: the measured steps are its steps
     assert rollout.measured.steps == recovery.motion.steps
@@ -108,6 +111,7 @@ def test_a_push_that_is_not_three_sane_numbers_is_refused(text):
         parse_push(text)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("extra", [["--push", "1,x,2"], ["--recover", "--no-stabilizer"]])
 def test_walk_refuses_bad_push_options_in_one_line_and_writes_nothing(tmp_path, extra):
     out = tmp_path / "report"

@@ -78,6 +78,7 @@ def test_planned_landings_are_where_the_soles_stand(robot):
         assert np.hypot(p.x - s.x, p.y - s.y) < 1e-6 and abs(p.yaw - s.yaw) < 1e-6
 
 
+@pytest.mark.slow
 def test_a_walk_without_footsteps_lands_where_it_touches_down(robot, straight_walk):
     straight = planned_landings(robot, straight_walk)
     assert [s.side for s in straight] == ["left", "right", "left"]  # two steps, then the stop closes up
@@ -85,12 +86,14 @@ def test_a_walk_without_footsteps_lands_where_it_touches_down(robot, straight_wa
     assert {s.side for s in start_soles(robot, straight_walk)} == {"left", "right"}
 
 
+@pytest.mark.slow
 def test_a_walk_report_has_a_top_view_with_the_goal(robot, straight_walk, tmp_path):
     files = plot_comparison(robot, {"generated": straight_walk, "simulated": straight_walk}, tmp_path, top_view=True,
                             goals=[GOAL])
     assert [f.name for f in files][-1] == "footsteps.png" and (tmp_path / "footsteps.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_video_frames_see_the_floor_the_footsteps_and_the_goal(robot, straight_walk):
     """No sky: the top of the picture is floor; the landings (blue, red) and the goal (green)
     are drawn on it, where the soles do not stand on them; the soles at the start and at the
@@ -113,6 +116,7 @@ def test_video_frames_see_the_floor_the_footsteps_and_the_goal(robot, straight_w
     assert pixels[1][0] < pixels[0][0] / 4 and min(pixels[1][1:]) > 50  # at the end the soles stand on the last two
 
 
+@pytest.mark.slow
 def test_csv_has_the_centre_of_mass_and_the_soles(robot, straight_walk, tmp_path):
     (path,), _ = export_motion(robot, straight_walk, "csv", prefix=tmp_path / "walk")
     with open(path, newline="") as f:

@@ -1,10 +1,12 @@
 """Walk requests that cannot be built wrong, and typed results whose JSON is the commands'."""
 
+import dataclasses
 import json
 import math
 
 import pytest
 
+from cocomopl.analysis.metrics import WalkMetrics
 from cocomopl.errors import Error
 from cocomopl.planning.footsteps import Landing
 from cocomopl.requests import Footsteps, Goals, Refinement, StraightSteps, WalkRequest
@@ -59,13 +61,15 @@ def test_a_result_prints_its_fields_in_order_with_parts_spliced_and_absent_ones_
     assert report.exit_code == 0 and report.to_table().endswith("wrote r.h5")
     record = SimulationRecord(stabilizer=True, stabilizer_gains=None, feedforward=False, sim_model=None, servos=None,
                               contact_time_constant_s=0.02, reference_cutoff_hz=20.0)
-    fell = SimulateReport(output="m.h5", simulation=record, metrics={"fell": True})
+    names = [f.name for f in dataclasses.fields(WalkMetrics)]
+    fell = SimulateReport(output="m.h5", simulation=record, metrics=WalkMetrics(**dict.fromkeys(names, 1.0) | {"fell": True}))
     assert list(fell.to_json()) == ["output", "stabilizer", "stabilizer_gains", "feedforward", "sim_model", "servos",
-                                    "contact_time_constant_s", "reference_cutoff_hz", "fell"]
+                                    "contact_time_constant_s", "reference_cutoff_hz", *names]
     assert fell.exit_code == 1
     assert "waypoints" not in GoalErrors(goal={"x_m": 1.0}).to_json()
 
 
+@pytest.mark.slow
 def test_generate_json_is_the_result_of_the_api(tmp_path):
     """The command prints the API's result as it is, footsteps of a goal walk included."""
     result = run_cli("generate", "--to", "-0.3,0.1,-20", "--json", "--out", str(tmp_path / "w.h5"))

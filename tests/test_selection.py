@@ -30,6 +30,7 @@ def selected(cyclic):
     return select_model(cyclic, n_primitives=(2, 3), kernels=("rbf",), max_iterations=5, workers=1)
 
 
+@pytest.mark.slow
 def test_every_candidate_is_fitted_and_the_rule_chooses(selected):
     best, rows = selected
     assert [(r["kernel"], r["n_primitives"]) for r in rows] == [("rbf", 2), ("rbf", 3)]
@@ -46,6 +47,7 @@ def _row(kernel: str, S: int, bound: float, explained: float) -> dict:
             "explained_variance": {"joints": 1.0, "zmp": explained, "pelvis": 1.0}}
 
 
+@pytest.mark.slow
 def test_the_search_stops_at_the_first_size_that_explains_enough(cyclic, monkeypatch):
     monkeypatch.setattr(selection, "EXPLAINED_ENOUGH", 0.0)
     best, rows = select_model(cyclic, n_primitives=(3, 2, 4), kernels=("rbf", "matern32"), max_iterations=2, workers=2)
@@ -77,6 +79,7 @@ def test_a_bound_that_turns_over_chooses_by_itself():
     assert choose(rows) == 1
 
 
+@pytest.mark.slow
 def test_the_best_candidate_keeps_the_selection_settings_and_predicts(selected, cyclic):
     best, _ = selected
     assert best.max_iterations == 5 and not best.verbose

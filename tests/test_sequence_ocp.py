@@ -28,6 +28,7 @@ def test_a_chained_walk_is_one_consistent_motion_on_its_footsteps(robot, small_d
     assert soles[:, 0] == pytest.approx([3 * SMALL_LENGTH] * 2, abs=5e-3)
 
 
+@pytest.mark.slow
 def test_a_missing_transition_is_solved_for_the_robot_given_not_one_rebuilt_by_name(monkeypatch, tmp_path):
     """A robot from a description file whose name is no bundled robot: the transition the
     dataset lacks is solved with that very Robot object."""

@@ -69,6 +69,7 @@ def test_state_conversions_round_trip(robot, sim):
     assert np.allclose(sim.v(sim.qpos(q), sim.qvel(q, v)), v)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stabilizer", [True, False])
 def test_standing_robot_carries_its_weight_on_its_soles(robot, sim, standing, stabilizer):
     rollout = simulate(sim, standing(0.5), stabilizer=stabilizer)
@@ -85,13 +86,14 @@ def test_standing_robot_carries_its_weight_on_its_soles(robot, sim, standing, st
     assert abs(zmp[1]) < foot_separation(robot) / 2
 
 
+@pytest.mark.slow
 def test_an_oc_step_walks_and_its_measurement_round_trips(robot, sim, tmp_path):
     reference = read_motion(DATASET, "start_250_L")
     rollout = simulate(sim, reference, stabilizer=True)
     assert not rollout.fell
     measured = rollout.measured
     assert measured.t[-1] == pytest.approx(reference.duration + 1.0, abs=0.01)  # and it stood for 1 s after
-    assert measured.meta["producer"] == "mujoco" and measured.meta["stabilizer"] is True
+    assert measured.producer == "mujoco" and measured.simulation.stabilizer is True
     # the left foot stepped about 250 mm forward (the start step's length)
     assert measured.q[-1, 0] - measured.q[0, 0] == pytest.approx(reference.q[-1, 0] - reference.q[0, 0], abs=0.05)
     write_motions(tmp_path / "m.h5", {"sim": measured}, {"robot": robot.name})
@@ -186,6 +188,7 @@ def _push_excursion(robot, sim, reference, dcm_gain: float, push_n: float, ankle
     return excursion
 
 
+@pytest.mark.slow
 def test_dcm_feedback_resists_a_push(robot, sim, standing):
     """The DCM feedback acts through the ankle damping control, as fast as its D lets it: at
     the default D (3000 N m s/rad, for soft landings) it hardly moves the ankles within this
@@ -230,7 +233,7 @@ def test_torque_feedforward_makes_the_servos_track_the_plan(robot, sim):
     errors = {}
     for feedforward in (False, True):
         measured = simulate(sim, reference, stabilizer=False, feedforward=feedforward).measured
-        assert measured.meta["feedforward"] is feedforward
+        assert measured.simulation.feedforward is feedforward
         playing = measured.t <= reference.duration
         planned = np.column_stack([np.interp(measured.t[playing], reference.t - reference.t[0], x) for x in reference.q[:, 7:].T])
         errors[feedforward] = np.sqrt(np.mean((measured.q[playing, 7:] - planned) ** 2))
@@ -265,6 +268,7 @@ def _other_model_file(robot, path, drop_actuators: bool = False):
     return path
 
 
+@pytest.mark.slow
 def test_a_model_file_made_elsewhere_is_matched_by_joint_name_and_walked(robot, standing, tmp_path):
     sim = load_sim_model(robot, _other_model_file(robot, tmp_path / "other.xml"))
     assert [sim.mj.actuator(int(a)).name for a in sim.actuators] == [f"servo_{n}" for n in robot.joint_names]
@@ -306,13 +310,14 @@ def test_a_model_file_of_another_robot_is_refused_in_one_line(robot, tmp_path, d
     assert "\n" not in str(raised.value)
 
 
+@pytest.mark.slow
 def test_the_projects_own_model_read_as_a_model_file_walks_exactly_as_built(robot, sim, tmp_path):
     path = tmp_path / "own.xml"
     path.write_text(mjcf(robot, visuals=False))
     reference = read_motion(DATASET, "start_250_L")
     built = simulate(sim, reference, stabilizer=True).measured
     read = simulate(load_sim_model(robot, path), reference, stabilizer=True).measured
-    assert read.meta["sim_model"] == str(path)
+    assert read.simulation.sim_model == str(path)
     assert np.allclose(read.q, built.q, atol=1e-9) and np.allclose(read.wrenches, built.wrenches, atol=1e-6)
 
 
@@ -324,10 +329,10 @@ def test_sim_settings_reach_the_rollout(robot, standing, tmp_path):
     path.write_text(mjcf(robot, visuals=False))
     settings = SimSettings(stabilizer=False, contact_time_constant=0.02, reference_cutoff_hz=0.0, feedforward=True,
                            sim_model=path, servos=ServoSettings(latency_s=0.002))
-    meta = rollout_of(robot, standing(0.2), settings).measured.meta
-    assert meta["stabilizer"] is False and meta["stabilizer_gains"] is None
-    assert meta["contact_time_constant_s"] == pytest.approx(0.02)
-    assert meta["reference_cutoff_hz"] == 0.0
-    assert meta["feedforward"] is True
-    assert meta["sim_model"] == str(path)
-    assert meta["servos"]["latency_s"] == pytest.approx(0.002)
+    record = rollout_of(robot, standing(0.2), settings).measured.simulation
+    assert record.stabilizer is False and record.stabilizer_gains is None
+    assert record.contact_time_constant_s == pytest.approx(0.02)
+    assert record.reference_cutoff_hz == 0.0
+    assert record.feedforward is True
+    assert record.sim_model == str(path)
+    assert record.servos["latency_s"] == pytest.approx(0.002)

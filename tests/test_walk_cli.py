@@ -28,6 +28,7 @@ def walk_report(tmp_path_factory):
     return out, result
 
 
+@pytest.mark.slow
 def test_walk_writes_its_report(walk_report):
     out, result = walk_report
     assert result.returncode == 0, result.stderr  # the bundled model's walk stands
@@ -47,6 +48,7 @@ def test_walk_writes_its_report(walk_report):
     assert f"report in {out}/ (" in result.stdout and "//" not in result.stdout
 
 
+@pytest.mark.slow
 def test_walk_outputs_carry_their_provenance(walk_report):
     out, _ = walk_report
     provenance = json.loads((out / "metrics.json").read_text())["provenance"]
@@ -58,16 +60,18 @@ def test_walk_outputs_carry_their_provenance(walk_report):
     assert attrs["command"] == provenance["command"] and attrs["inputs"] == provenance["inputs"]
 
 
+@pytest.mark.slow
 def test_the_bundled_walk_is_not_flagged_and_a_tight_threshold_flags_it(monkeypatch):
     from cocomopl import pipeline
     from cocomopl.requests import StraightSteps, WalkRequest
 
     walk = pipeline.generate_walk(WalkRequest(StraightSteps([0.25, 0.25])))
-    assert walk.motion.meta["plan_zmp_error_m"] < pipeline.FILTER_WARNING_M and walk.warnings == []
+    assert walk.motion.plan.plan_zmp_error_m < pipeline.FILTER_WARNING_M and walk.warnings == []
     monkeypatch.setattr(pipeline, "FILTER_WARNING_M", 0.0)  # every real walk leaves some error
     assert any("dynamics filter" in w for w in pipeline.generate_walk(WalkRequest(StraightSteps([0.25, 0.25]))).warnings)
 
 
+@pytest.mark.slow
 def test_simulate_a_motion_file_replacing_an_earlier_result(tmp_path):
     source = tmp_path / "generated.h5"
     assert run_cli("generate", "--lengths-mm", "250,250", "--out", str(source)).returncode == 0
@@ -79,12 +83,13 @@ def test_simulate_a_motion_file_replacing_an_earlier_result(tmp_path):
     assert f"cocomopl: warning: replacing {measured}" in result.stderr
     payload = json.loads(result.stdout)
     assert payload["stabilizer"] is False and payload["fell"] is False
-    assert payload["reference_cutoff_hz"] == 0.0 == read_motion(measured).meta["reference_cutoff_hz"]
-    assert payload["contact_time_constant_s"] == 0.02 == read_motion(measured).meta["contact_time_constant_s"]
+    assert payload["reference_cutoff_hz"] == 0.0 == read_motion(measured).simulation.reference_cutoff_hz
+    assert payload["contact_time_constant_s"] == 0.02 == read_motion(measured).simulation.contact_time_constant_s
     with h5py.File(measured) as f:
         assert file_attrs(f)["inputs"]["reference"] == file_identity(source)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args, words",
     [
@@ -109,6 +114,7 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, words):
     assert list(tmp_path.iterdir()) == []  # not the report, not a temporary folder
 
 
+@pytest.mark.slow
 def test_foreign_motion_file_and_unwritable_folder(tmp_path):
     foreign = tmp_path / "foreign.h5"
     with h5py.File(foreign, "w") as f:
@@ -119,6 +125,7 @@ def test_foreign_motion_file_and_unwritable_folder(tmp_path):
     assert_one_line_error(run_cli("walk", "--lengths-mm", "250,250", "--out", str(blocker / "report")), "cannot")
 
 
+@pytest.mark.slow
 def test_interrupting_walk_leaves_no_report(tmp_path):
     out = tmp_path / "report"
     process = start_walk(out)
@@ -129,6 +136,7 @@ def test_interrupting_walk_leaves_no_report(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_killed_walk_leaves_the_old_report_and_the_next_run_cleans_up(tmp_path):
     out = tmp_path / "report"
     assert main(["plot", str(BUNDLED_DATASET), "--motion", "cyclic_250_L", "--out", str(out)]) == 0

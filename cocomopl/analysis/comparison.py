@@ -11,6 +11,8 @@ the contact each ran with travel with the figures.
 
 from __future__ import annotations
 
+import dataclasses
+
 from cocomopl.analysis.metrics import (
     fell,
     force_variation,
@@ -70,7 +72,7 @@ def planned_figures(robot: Robot, plan: Motion) -> dict:
 
 def window_figures(robot: Robot, planned: dict[str, Motion], simulated: dict[str, Motion],
                    *, window: tuple[float, float]) -> dict[str, dict]:
-    """Per walk, :func:`~cocomopl.analysis.metrics.summary` of its simulated motion against its
+    """Per walk, the JSON of :func:`~cocomopl.analysis.metrics.summary` of its simulated motion against its
     plan and :func:`~cocomopl.analysis.metrics.posture_statistics`, both over ``window`` (s,
     on the plans' clock, which the simulated motions share), with the plan's own figures
     under ``"planned"`` and the stabilizer gains the rollout ran with."""
@@ -79,10 +81,10 @@ def window_figures(robot: Robot, planned: dict[str, Motion], simulated: dict[str
     for name, plan in planned.items():
         measured = simulated[name]
         plan_in, measured_in = windowed(plan, start, end), windowed(measured, start, end)
-        figures = summary(robot, measured_in, plan_in)
-        figures["fell"] = fell(robot, measured)  # anywhere in the rollout, standing included
+        # a fall anywhere in the rollout counts, standing included
+        figures = dataclasses.replace(summary(robot, measured_in, plan_in), fell=fell(robot, measured)).to_json()
         figures.update(posture_statistics(robot, measured_in))
-        figures["stabilizer_gains"] = measured.meta.get("stabilizer_gains")
+        figures["stabilizer_gains"] = None if measured.simulation is None else measured.simulation.stabilizer_gains
         figures["planned"] = planned_figures(robot, plan_in)
         out[name] = figures
     return out

@@ -42,11 +42,11 @@ def start_soles(robot: Robot, motion: Motion) -> list[Landing]:
 
 
 def planned_landings(robot: Robot, motion: Motion) -> list[Landing]:
-    """The landings ``motion`` plans: its ``footsteps`` metadata where it has them (a walk on
+    """The landings ``motion`` plans: its plan's ``footsteps`` where it has them (a walk on
     landings or to a goal), else where its soles stand after each touchdown."""
-    if "footsteps" in motion.meta:
+    if motion.plan is not None and motion.plan.footsteps is not None:
         return [Landing(float(f["x_m"]), float(f["y_m"]), math.radians(f["yaw_deg"]), f["side"])
-                for f in motion.meta["footsteps"]]
+                for f in motion.plan.footsteps]
     return stances(robot, motion, first=False)
 
 

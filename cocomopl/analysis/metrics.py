@@ -223,23 +223,33 @@ def zmp_rms_error(measured: Motion, reference: Motion) -> float:
     return float(np.sqrt(error.mean())) if len(error) else float("nan")
 
 
-def tracking_error(measured: Motion, reference: Motion) -> dict:
-    """Joint-angle error of ``measured`` against ``reference`` at the measured times, rad.
+@dataclasses.dataclass(frozen=True)
+class TrackingError:
+    """Joint-angle error of a measured motion against its reference (:func:`tracking_error`), rad.
 
-    Returns
-    -------
-    dict with ``rms`` (over all joints and samples), ``max`` (largest absolute error) and
-    ``per_joint_rms`` ({joint name: rms})
+    Attributes
+    ----------
+    rms : over all joints and samples
+    max : the largest absolute error
+    per_joint_rms : {joint name: rms over the samples}
     """
+
+    rms: float
+    max: float
+    per_joint_rms: dict[str, float]
+
+
+def tracking_error(measured: Motion, reference: Motion) -> TrackingError:
+    """Joint-angle error of ``measured`` against ``reference`` at the measured times, rad."""
     if list(measured.joint_names) != list(reference.joint_names):
         raise Error("the measured and reference motions have different joints")
     ours, theirs = _aligned(measured, reference, "q", slice(7, None))
     error = ours - theirs
-    return {
-        "rms": float(np.sqrt(np.mean(error**2))),
-        "max": float(np.abs(error).max()),
-        "per_joint_rms": dict(zip(measured.joint_names, np.sqrt(np.mean(error**2, axis=0)).tolist())),
-    }
+    return TrackingError(
+        rms=float(np.sqrt(np.mean(error**2))),
+        max=float(np.abs(error).max()),
+        per_joint_rms=dict(zip(measured.joint_names, np.sqrt(np.mean(error**2, axis=0)).tolist())),
+    )
 
 
 def knee_joints(robot: Robot) -> dict[str, int]:
@@ -281,10 +291,10 @@ def posture_statistics(robot: Robot, motion: Motion) -> dict:
 
 
 def fell(robot: Robot, motion: Motion, *, height_ratio: float = FALL_HEIGHT_RATIO, tilt: float = FALL_TILT) -> bool:
-    """Whether the robot fell: the simulator said so (``meta["fell"]``), or at some sample
+    """Whether the robot fell: the simulator said so (``simulation.fell``), or at some sample
     the pelvis is below ``height_ratio`` times its first height, or its z axis is tilted
     from the vertical by more than ``tilt`` rad."""
-    if motion.meta.get("fell"):
+    if motion.simulation is not None and motion.simulation.fell:
         return True
     pelvis = pelvis_placements(robot, motion.q)
     height = np.array([M.translation[2] for M in pelvis])
@@ -382,62 +392,101 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> dict:
-    """The comparison numbers of one motion, JSON-serialisable (undefined values None).
+@dataclasses.dataclass(frozen=True)
+class WalkMetrics:
+    """The comparison numbers of one motion (:func:`summary`), SI units, undefined values None.
+
+    Per-foot values are the larger of the two feet; the fields from ``zmp_rms_error`` on
+    need a reference and are None without one.
+
+    Attributes
+    ----------
+    fell : whether the robot fell (:func:`fell`)
+    duration_s : the measured motion's duration, s
+    mean_torque : :func:`mean_torque`, N m s^-½
+    rms_torque : :func:`rms_torque`, N m
+    peak_force_over_weight : largest vertical sole force over the body weight
+    max_force_rate : largest ``|dF_z/dt|`` of the smoothed forces (:func:`max_force_rate`), N/s
+    max_force_rate_raw : the same without smoothing, N/s
+    force_rate_rms : :func:`force_rate_rms`, N/s
+    force_variation_over_weight : :func:`force_variation` over the body weight
+    total_force_variation_over_weight : :func:`total_force_variation` over the body weight
+    knee_torque_peak : largest absolute knee torque, N m
+    foot_slip_m : :func:`foot_slip`, m
+    end_balance_margin_m : :func:`end_balance_margin`, m; None when no sole carries weight
+    max_landing_speed : fastest touchdown (:func:`landing_speeds`), m/s
+    zmp_rms_error : :func:`zmp_rms_error`, m; None where the ZMP is never defined
+    tracking_rms_rad, tracking_max_rad : :func:`tracking_error`'s ``rms`` and ``max``, rad
+    touchdown_delay_median_s, touchdown_delay_max_s : the median and the largest absolute
+        value (sign kept) of :func:`touchdown_delays`, s; None if no touchdown matches
+    reference_mean_torque : the reference's :func:`mean_torque`, N m s^-½
+    completed : measured duration over reference duration, at most 1
+    """
+
+    fell: bool
+    duration_s: float
+    mean_torque: float
+    rms_torque: float
+    peak_force_over_weight: float
+    max_force_rate: float
+    max_force_rate_raw: float
+    force_rate_rms: float
+    force_variation_over_weight: float
+    total_force_variation_over_weight: float
+    knee_torque_peak: float
+    foot_slip_m: float
+    end_balance_margin_m: float | None
+    max_landing_speed: float
+    zmp_rms_error: float | None = None
+    tracking_rms_rad: float | None = None
+    tracking_max_rad: float | None = None
+    touchdown_delay_median_s: float | None = None
+    touchdown_delay_max_s: float | None = None
+    reference_mean_torque: float | None = None
+    completed: float | None = None
+
+    def to_json(self) -> dict:
+        """The metrics as a JSON object, keys in the order of the fields."""
+        return dataclasses.asdict(self)
+
+
+def summary(robot: Robot, measured: Motion, reference: Motion | None = None) -> WalkMetrics:
+    """The comparison numbers of ``measured``, against ``reference`` where given.
 
     Force rates are of the forces smoothed over ``FORCE_FILTER_S`` (:func:`force_rates`);
-    ``max_force_rate_raw`` is without smoothing.  Per-foot values are the larger of the two
-    feet.  Entries that need a reference are None without one.  With a reference, the
-    torque means are over its duration only (:func:`windowed`): a rollout goes on standing
-    after the motion ends, and those standing torques would dilute a mean per second;
-    everything else, a fall or slip while standing included, is over the whole motion.
-
-    Returns
-    -------
-    dict with ``fell``, ``duration_s``, ``mean_torque`` (N m s^-½), ``rms_torque`` (N m),
-    ``peak_force_over_weight``, ``max_force_rate`` and ``max_force_rate_raw`` (N/s),
-    ``force_rate_rms`` (N/s), ``force_variation_over_weight`` (:func:`force_variation` over
-    the body weight), ``total_force_variation_over_weight`` (:func:`total_force_variation`
-    over the body weight), ``knee_torque_peak`` (N m), ``foot_slip_m``,
-    ``end_balance_margin_m``, ``max_landing_speed`` (m/s, :func:`landing_speeds`), and against the reference: ``zmp_rms_error`` (m), ``tracking_rms_rad``, ``tracking_max_rad``,
-    ``touchdown_delay_median_s`` and ``touchdown_delay_max_s`` (the median and the largest
-    absolute value of :func:`touchdown_delays`, sign kept), ``reference_mean_torque`` and
-    ``completed`` (measured duration / reference duration)
+    ``max_force_rate_raw`` is without smoothing.  With a reference, the torque means are
+    over its duration only (:func:`windowed`): a rollout goes on standing after the motion
+    ends, and those standing torques would dilute a mean per second; everything else, a
+    fall or slip while standing included, is over the whole motion.
     """
     walked = measured if reference is None else windowed(measured, measured.t[0], measured.t[0] + reference.duration)
-    out = {
-        "fell": fell(robot, measured),
-        "duration_s": measured.duration,
-        "mean_torque": mean_torque(walked),
-        "rms_torque": rms_torque(walked),
-        "peak_force_over_weight": float(peak_force_over_weight(measured, robot.mass).max()),
-        "max_force_rate": float(max_force_rate(measured).max()),
-        "max_force_rate_raw": float(max_force_rate(measured, None).max()),
-        "force_rate_rms": float(force_rate_rms(measured).max()),
-        "force_variation_over_weight": float(force_variation(measured).max() / (robot.mass * GRAVITY)),
-        "total_force_variation_over_weight": total_force_variation(measured) / (robot.mass * GRAVITY),
-        "knee_torque_peak": float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
-        "foot_slip_m": foot_slip(robot, measured),
-        "end_balance_margin_m": _finite_or_none(end_balance_margin(robot, measured)),
-        "max_landing_speed": float(landing_speeds(robot, measured).max(initial=0.0)),
-        "zmp_rms_error": None,
-        "tracking_rms_rad": None,
-        "tracking_max_rad": None,
-        "touchdown_delay_median_s": None,
-        "touchdown_delay_max_s": None,
-        "reference_mean_torque": None,
-        "completed": None,
-    }
-    if reference is not None:
-        tracking = tracking_error(measured, reference)
-        delays = touchdown_delays(measured, reference)
-        out.update(
-            touchdown_delay_median_s=float(np.median(delays)) if len(delays) else None,
-            touchdown_delay_max_s=float(delays[np.argmax(np.abs(delays))]) if len(delays) else None,
-            zmp_rms_error=_finite_or_none(zmp_rms_error(measured, reference)),
-            tracking_rms_rad=tracking["rms"],
-            tracking_max_rad=tracking["max"],
-            reference_mean_torque=mean_torque(reference),
-            completed=min(measured.duration / reference.duration, 1.0),
-        )
-    return out
+    out = WalkMetrics(
+        fell=fell(robot, measured),
+        duration_s=measured.duration,
+        mean_torque=mean_torque(walked),
+        rms_torque=rms_torque(walked),
+        peak_force_over_weight=float(peak_force_over_weight(measured, robot.mass).max()),
+        max_force_rate=float(max_force_rate(measured).max()),
+        max_force_rate_raw=float(max_force_rate(measured, None).max()),
+        force_rate_rms=float(force_rate_rms(measured).max()),
+        force_variation_over_weight=float(force_variation(measured).max() / (robot.mass * GRAVITY)),
+        total_force_variation_over_weight=total_force_variation(measured) / (robot.mass * GRAVITY),
+        knee_torque_peak=float(max(np.abs(tau).max() for tau in knee_torques(robot, measured).values())),
+        foot_slip_m=foot_slip(robot, measured),
+        end_balance_margin_m=_finite_or_none(end_balance_margin(robot, measured)),
+        max_landing_speed=float(landing_speeds(robot, measured).max(initial=0.0)),
+    )
+    if reference is None:
+        return out
+    tracking = tracking_error(measured, reference)
+    delays = touchdown_delays(measured, reference)
+    return dataclasses.replace(
+        out,
+        touchdown_delay_median_s=float(np.median(delays)) if len(delays) else None,
+        touchdown_delay_max_s=float(delays[np.argmax(np.abs(delays))]) if len(delays) else None,
+        zmp_rms_error=_finite_or_none(zmp_rms_error(measured, reference)),
+        tracking_rms_rad=tracking.rms,
+        tracking_max_rad=tracking.max,
+        reference_mean_torque=mean_torque(reference),
+        completed=min(measured.duration / reference.duration, 1.0),
+    )

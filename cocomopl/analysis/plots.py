@@ -115,7 +115,7 @@ def legend_outside(ax, **kwargs) -> None:
 
 def _zmp_label(motion: Motion) -> str:
     # an OC motion stores its contact wrenches' ZMP; a generated one the ZMP it learned
-    return "ZMP (learned)" if motion.meta.get("producer") == "primitives" else "ZMP (contact wrenches)"
+    return "ZMP (learned)" if motion.producer == "primitives" else "ZMP (contact wrenches)"
 
 
 def _phase_shading(ax, motion: Motion) -> None:

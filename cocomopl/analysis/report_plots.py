@@ -104,7 +104,7 @@ def plot_footprint(robot: Robot, motions: dict[str, Motion], path: Path, *, goal
     fig, ax = pyplot().subplots(figsize=(8, 6))
     for n, (label, motion) in enumerate(motions.items()):
         colour = colours[label]
-        if n == 0 or "footsteps" in motion.meta:
+        if n == 0 or (motion.plan is not None and motion.plan.footsteps is not None):
             landings = planned_landings(robot, motion)
             for k, landing in enumerate(landings):
                 ax.fill(*sole_outline(robot, landing).T, fill=False, ec=colour, lw=1, ls="-" if n == 0 else "--",

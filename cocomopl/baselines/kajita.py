@@ -520,9 +520,8 @@ def kajita_motion(
     # the clock starts when the walking does: the standing prelude runs at negative times
     motion = kinematic_motion(robot, t - settings.prelude, q, contact=contact, impacts=impacts,
                               phases=_phase_ranges(phases, index), steps=specs, step_starts=starts,
-                              meta={})
+                              producer="kajita")
     motion.meta = {
-        "producer": "kajita",
         **asdict(settings),
         "pelvis_drop": drop,
         "pelvis_drop_searched": settings.pelvis_drop is None,

@@ -86,7 +86,7 @@ def length_job(
             result.failed[spec.name] = info["attempts"].get(kind, [])
         else:
             motion = to_motion(robot, solution, opts)
-            motion.meta["duration_search"] = info["duration_search"]
+            motion.solution = replace(motion.solution, duration_search=info["duration_search"])
             result.motions[spec] = motion
     return result
 
@@ -186,7 +186,7 @@ def _robot_problem(attrs: dict, expected: dict, robot: Robot) -> str | None:
 
 def _solver_problem(motion: Motion) -> str | None:
     """Why a part lacks the solver's statistics (which the dataset's summary reports), or None."""
-    solver = motion.meta.get("solver")
+    solver = None if motion.solution is None else motion.solution.solver
     if not isinstance(solver, dict) or not isinstance(solver.get("solve_time_s"), (int, float)):
         return "it lacks the solver's statistics"
     return None
@@ -434,7 +434,7 @@ def _solve_missing(
         for spec, motion in result.motions.items():
             write_part(parts, spec, motion, attrs=attrs)
             done[spec] = motion
-            solver = motion.meta["solver"]
+            solver = motion.solution.solver
             note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
             bar.update(1)
         for name, attempts in result.failed.items():
@@ -546,7 +546,7 @@ def _solve_from_guesses(executor: cf.Executor, robot_name: str, settings: OCPSet
 def _choose_branch(by_sweep: dict[str, JobResult]) -> tuple[str, dict]:
     """The sweep whose result a length keeps (see :func:`solve_by_continuation`) and the record."""
     def cost(result: JobResult) -> float:
-        return sum(m.meta["solver"]["cost"] for m in result.motions.values())
+        return sum(m.solution.solver["cost"] for m in result.motions.values())
 
     chosen = min(by_sweep, key=lambda sweep: (-len(by_sweep[sweep].motions), cost(by_sweep[sweep])))
     record = {"chosen": chosen, **{f"{sweep}_cost": cost(result) for sweep, result in by_sweep.items()}}
@@ -566,7 +566,7 @@ def _write_dataset(output: Path, robot: Robot, specs: list[StepSpec], done: dict
             mirrored = mirror_motion(robot, done[spec])
             motions[mirrored.name] = mirrored
     signals = {name: training_signals(robot, m) for name, m in motions.items()}
-    solve_times = [m.meta["solver"]["solve_time_s"] for m in done.values()]
+    solve_times = [m.solution.solver["solve_time_s"] for m in done.values()]
     attrs = {
         "content": "dataset",
         "robot": robot.name,

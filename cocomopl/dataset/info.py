@@ -18,13 +18,13 @@ def dataset_info(path: str | Path) -> dict:
     names = sorted(motions)
     n_signals = {len(attrs["signals"][n]["names"]) for n in names}
     durations = {n: float(motions[n].t[-1]) for n in names}
-    stats = [motions[n].meta for n in names]
+    solutions = [motions[n].solution for n in names]
     try:
-        solver = [s["solver"] for s in stats if not s.get("mirrored")]
+        solver = [s.solver for s in solutions if not s.mirrored]
         solve_times = [float(s["solve_time_s"]) for s in solver]
         iterations = [float(s["iterations"]) for s in solver]
         converged = all(bool(s["converged"]) for s in solver)
-    except (KeyError, TypeError, ValueError) as exc:
+    except (AttributeError, KeyError, TypeError, ValueError) as exc:
         raise Error(f"{path}: a motion's solver statistics are incomplete ({type(exc).__name__}: {exc})") from None
     signals = n_signals.pop() if len(n_signals) == 1 else None
     lengths = _attribute(path, attrs, "lengths_m", list, [])

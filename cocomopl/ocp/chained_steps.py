@@ -18,7 +18,7 @@ from tqdm import tqdm
 
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, footsteps
-from cocomopl.motion import SAMPLED, Motion, StepSpec
+from cocomopl.motion import SAMPLED, Motion, SolutionRecord, StepSpec
 from cocomopl.ocp.problems import translate_state, turn_state
 from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import solve_transition
@@ -88,7 +88,8 @@ def concatenate(steps: list[Motion]) -> Motion:
         step_starts=np.array(starts, dtype=int),
         joint_names=list(first.joint_names),
         robot=first.robot,
-        meta={"producer": "ocp", "solver": [m.meta.get("solver") for m in steps]},
+        producer="ocp",
+        solution=SolutionRecord(solver=[None if m.solution is None else m.solution.solver for m in steps]),
     )
 
 
@@ -104,7 +105,7 @@ def solve_sequence(
 
     ``motions`` is a dataset's motions by name and ``settings`` its OCP settings: its cyclic
     steps give the gait states, and its solved steps are reused (steps solved here are added
-    to it; their names are in ``meta["solved_now"]``).  The footsteps are those of
+    to it; their names are in ``solution.solved_now``).  The footsteps are those of
     :func:`cocomopl.gait.footsteps`, the same as a generated walk's.
     """
     known = set(motions)
@@ -115,5 +116,5 @@ def solve_sequence(
         # a step's frame: the stance sole at the origin, facing +x
         placed.append(place(robot, motion, feet["start"][stance][:2], stance_yaw=feet["yaw"]["start"][stance]))
     walk = concatenate(placed)
-    walk.meta["solved_now"] = sorted(set(motions) - known)  # the rest came from ``motions``
+    walk.solution = dataclasses.replace(walk.solution, solved_now=sorted(set(motions) - known))  # the rest came from ``motions``
     return walk

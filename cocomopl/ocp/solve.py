@@ -21,7 +21,7 @@ from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.gait import OTHER_SIDE, foot_separation
 from cocomopl.kinematics import double_support_posture
-from cocomopl.motion import Footstep, Motion, StepSpec, as_footstep
+from cocomopl.motion import Footstep, Motion, SolutionRecord, StepSpec, as_footstep
 from cocomopl.ocp.problems import (
     StepPlan,
     build_problem,
@@ -515,7 +515,8 @@ def to_motion(robot: Robot, solution: Solution, settings: OCPSettings, *, produc
         step_starts=np.array([0], dtype=int),
         joint_names=list(robot.joint_names),
         robot=robot.name,
-        meta={"producer": producer, "solver": solution.stats},
+        producer=producer,
+        solution=SolutionRecord(solver=solution.stats),
     )
 
 

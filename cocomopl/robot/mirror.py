@@ -74,5 +74,5 @@ def mirror_motion(robot: Robot, motion):
         contact=motion.contact[:, ::-1].copy(),
         zmp=mirror_points(motion.zmp),
         steps=[s.mirrored() for s in motion.steps],
-        meta={**motion.meta, "mirrored": not motion.meta.get("mirrored", False)},
+        solution=None if motion.solution is None else replace(motion.solution, mirrored=not motion.solution.mirrored),
     )

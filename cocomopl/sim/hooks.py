@@ -89,4 +89,5 @@ class Replanner(Protocol):
         """At a recorded sample: the walk planned again, or None to keep following it."""
 
     def metadata(self) -> dict[str, list[dict]]:
-        """The changes made, under their key in the measured motion's metadata."""
+        """The changes made, under their field of the measured motion's
+        :class:`~cocomopl.motion.RolloutRecord` (``recoveries``, ``reaimed``)."""

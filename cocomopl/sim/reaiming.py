@@ -120,6 +120,7 @@ def reaimed_specs(
     robot: Robot,
     specs: Sequence[StepSpec],
     targets: Sequence[np.ndarray],
+    *,
     step: int,
     stance: np.ndarray,
     limits: dict[str, tuple[float, float]],
@@ -211,7 +212,7 @@ class Reaiming:
             return None
         self._tried.add(step)
         stance = soles[OTHER_SIDE[self.specs[step].swing_side]]
-        aim = reaimed_specs(self.robot, self.specs, self.targets, step, stance, self.footstep_range)
+        aim = reaimed_specs(self.robot, self.specs, self.targets, step=step, stance=stance, limits=self.footstep_range)
         if aim is None:
             return None
         started = perf_counter()

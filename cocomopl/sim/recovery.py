@@ -98,12 +98,12 @@ class StepRecovery:
         if stance is None:
             return None
         x, y, yaw = step.soles()[stance]
-        return self.check(step.elapsed, control.dcm_error, control.omega, (np.array([x, y]), float(yaw)))
+        return self.check(step.elapsed, control.dcm_error, omega=control.omega, stance_sole=(np.array([x, y]), float(yaw)))
 
     def metadata(self) -> dict[str, list[dict]]:
         return {"recoveries": [change.as_dict() for change in self.replanned]}
 
-    def check(self, time: float, error: np.ndarray, omega: float, stance_sole: tuple[np.ndarray, float]) -> Motion | None:
+    def check(self, time: float, error: np.ndarray, *, omega: float, stance_sole: tuple[np.ndarray, float]) -> Motion | None:
         """The walk generated again with a landing moved, or None if nothing needs to change.
 
         ``time``: s from the walk's start; ``error``: the measured DCM minus the reference's

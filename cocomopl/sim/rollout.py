@@ -31,7 +31,7 @@ from tqdm import tqdm
 from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
 from cocomopl.dynamics import SIDES, zmp_from_wrenches
 from cocomopl.errors import Error
-from cocomopl.motion import Motion
+from cocomopl.motion import Motion, RolloutRecord
 from cocomopl.sim.hooks import Hook, Replanner, Step
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
 from cocomopl.sim.perturbations import Push
@@ -216,23 +216,22 @@ def simulate(
     channel = CommandChannel(servos, dt, sim.robot.nu)
     played = _played(sim, motion, reference, [*([control] if control else []), *pushes, *hooks, channel],
                      replanner=replanner, settle=settle, hold=hold, record_dt=record_dt, progress=progress)
-    meta = {
-        "producer": "mujoco",
-        "reference_producer": played.motion.meta.get("producer", "unknown"),
-        "stabilizer": gains is not None,
-        "stabilizer_gains": None if gains is None else gains.as_dict(),
-        "reference_cutoff_hz": reference_cutoff_hz,
-        "feedforward": feedforward,
-        "fell": played.fell,
-        "fall_time_s": played.fall_time,
-        "timestep_s": float(dt),
-        "sim_model": sim.source,
-        "contact_time_constant_s": sim.contact_time_constant,
-        "servos": servos.as_dict(),
-        "pushes": [asdict(push) for push in pushes],
+    record = RolloutRecord(
+        reference_producer="unknown" if played.motion.producer is None else played.motion.producer,
+        stabilizer=gains is not None,
+        stabilizer_gains=None if gains is None else gains.as_dict(),
+        reference_cutoff_hz=reference_cutoff_hz,
+        feedforward=feedforward,
+        fell=played.fell,
+        fall_time_s=played.fall_time,
+        timestep_s=float(dt),
+        sim_model=sim.source,
+        contact_time_constant_s=sim.contact_time_constant,
+        servos=servos.as_dict(),
+        pushes=[asdict(push) for push in pushes],
         **({} if replanner is None else replanner.metadata()),
-    }
-    measured = _measured_motion(sim, played.motion, played.rows, meta)
+    )
+    measured = _measured_motion(sim, played.motion, played.rows, record)
     return Rollout(measured, np.array(played.rows["qpos"]), played.fell, played.fall_time)
 
 
@@ -295,7 +294,7 @@ def _played(sim: SimModel, motion: Motion, reference: Reference, hooks: Sequence
     return _Played(rows, motion, fell, fall_time)
 
 
-def _measured_motion(sim: SimModel, reference: Motion, rows: dict, meta: dict) -> Motion:
+def _measured_motion(sim: SimModel, reference: Motion, rows: dict, record: RolloutRecord) -> Motion:
     t = np.array(rows["t"])
     q = np.array(rows["q"])
     wrenches = np.array(rows["wrenches"])
@@ -321,5 +320,6 @@ def _measured_motion(sim: SimModel, reference: Motion, rows: dict, meta: dict) -
         step_starts=np.minimum(starts, max(len(t) - 1, 0)).astype(int),
         joint_names=list(reference.joint_names),
         robot=reference.robot,
-        meta=meta,
+        producer="mujoco",
+        simulation=record,
     )

@@ -100,7 +100,7 @@ class StabilizerGains:
         return asdict(self)
 
 
-# Per walk generator (the motion's ``meta["producer"]``), the gains tuned on three sequences
+# Per walk generator (the motion's ``producer``), the gains tuned on three sequences
 # that no reported figure uses (benchmarks/stabilizer_tuning.py, docs/results.md#stabilizer-tuning).
 # A setting replaces the standing D = 3000, K = 2 only if it lowers the generator's mean peak
 # force by more than 0.01 x weight.  With the bundled model none does (MP: 0.002 at K = 3).
@@ -113,7 +113,7 @@ TUNED_GAINS = {
 
 def gains_for(reference: Motion) -> StabilizerGains:
     """The tuned gains for the generator that made ``reference``; the defaults for any other."""
-    return TUNED_GAINS.get(reference.meta.get("producer"), StabilizerGains())
+    return TUNED_GAINS.get(reference.producer, StabilizerGains())
 
 
 def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -10,6 +10,8 @@ dynamics of the resulting motion, so every analysis tool can read it like an OC 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
@@ -17,7 +19,7 @@ from scipy.interpolate import CubicSpline
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
 from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan, sole_poses
 from cocomopl.kinematics import flat_placement
-from cocomopl.motion import SAMPLED, TIME_TOLERANCE, Motion
+from cocomopl.motion import SAMPLED, TIME_TOLERANCE, Motion, PlanRecord
 from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
@@ -187,18 +189,13 @@ def place_steps(robot: Robot, steps: list[PredictedStep], *, dt: float = 0.005,
     q, upper_body = _upper_body_within_limits(robot, t, q, contact, impacts, ground, zmp)
     motion = kinematic_motion(
         robot, t, q, contact=contact, impacts=impacts, phases=phases, steps=[s.spec for s in steps],
-        step_starts=np.array(starts),
-        meta={
-            "producer": "primitives",
-            "dynamics_filter_zmp_error_m": filter_errors,
-            "dynamics_filter_kept_error_m": filter_errors[kept],
-            "upper_body_limits": upper_body,
-        }, zmp=zmp,
+        step_starts=np.array(starts), producer="primitives", zmp=zmp,
     )
     # the upper-body correction and the filter's second run move the ZMP after the first
     # run's kept pass: what the walk is judged by is the plan's own
     multibody = zmp_from_wrenches(sole_placements(robot, q), motion.wrenches)
-    motion.meta["plan_zmp_error_m"] = rms_zmp_error(multibody, zmp, impacts)
+    motion.plan = PlanRecord(dynamics_filter_zmp_error_m=filter_errors, dynamics_filter_kept_error_m=filter_errors[kept],
+                             upper_body_limits=upper_body, plan_zmp_error_m=rms_zmp_error(multibody, zmp, impacts))
     return motion
 
 
@@ -242,4 +239,7 @@ def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], *,
         joint_names=list(motion.joint_names),
         robot=motion.robot,
         meta={**motion.meta, **stretch.meta},
+        producer=stretch.producer,
+        plan=replace(stretch.plan, model=motion.plan.model, lengths_mm=motion.plan.lengths_mm,
+                     footsteps=motion.plan.footsteps),
     )
