@@ -8,6 +8,7 @@ lengths in millimetres, as the paper does; they are parsed here into metres.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -180,7 +181,7 @@ def sequence_specs(lengths: Sequence[float], first_swing: str = "left") -> list[
             f"previous step ended; end the list with ...,{b},{b} or ...,{a},{a}"
         )
     specs = [StepSpec("start", 0.0, lengths[0], first_swing)]
-    for previous, length in zip(lengths[:-2], lengths[1:-1]):
+    for previous, length in itertools.pairwise(lengths[:-1]):
         kind = "cyclic" if length == previous else "transition"
         specs.append(StepSpec(kind, previous, length, OTHER_SIDE[specs[-1].swing_side]))
     specs.append(StepSpec("stop", lengths[-1], 0.0, OTHER_SIDE[specs[-1].swing_side]))

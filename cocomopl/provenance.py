@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import shlex
 import sys
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -55,7 +55,7 @@ def stamp(command: str | None = None, packages: tuple[str, ...] = (), **inputs: 
     keyword (``model=path``) as :func:`file_identity`."""
     return {
         "command": command or "Python API",
-        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "versions": versions(list(packages)),
         "inputs": {key: file_identity(path) for key, path in inputs.items() if path is not None},
     }

@@ -106,6 +106,7 @@ def test_extra_transitions_errors(text, message):
         parse_transitions_mm(text, (0.15, 0.25))
 
 
+@pytest.mark.slow
 def test_info_json(small_dataset, capsys):
     assert main(["dataset", "info", str(small_dataset), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
@@ -118,6 +119,7 @@ def test_info_json(small_dataset, capsys):
     assert info["versions"]["pin"] == "4.0.0"
 
 
+@pytest.mark.slow
 def test_check_passes_and_reports_worst_values(small_dataset, capsys):
     assert main(["dataset", "check", str(small_dataset), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
@@ -126,6 +128,7 @@ def test_check_passes_and_reports_worst_values(small_dataset, capsys):
         assert key in report["worst"]
 
 
+@pytest.mark.slow
 def test_check_fails_on_a_tampered_motion(small_dataset, tmp_path, capsys):
     """Torques that no longer produce the motion are caught by inverse dynamics."""
     bad = tmp_path / "bad.h5"

@@ -14,9 +14,9 @@ import pytest
 
 from cocomopl.cli import main
 from cocomopl.dataset.generate import (
-    _finished_part,
     check_dt,
     check_workers,
+    finished_part,
     generate,
     job_executor,
     job_result,
@@ -98,14 +98,16 @@ def _assert_warned(capsys, part, *words) -> None:
         assert word in lines[0], lines[0]
 
 
+@pytest.mark.slow
 def test_a_sound_part_is_reused(tmp_path, small_dataset, robot, capsys):
     motions, _ = read_motions(small_dataset)
     write_part(tmp_path, CYCLIC, motions[CYCLIC.name], attrs=part_attrs(SMALL, robot))
-    reused = _finished_part(tmp_path / "cyclic_200_L.h5", CYCLIC, part_attrs(SMALL, robot), robot)
+    reused = finished_part(tmp_path / "cyclic_200_L.h5", CYCLIC, part_attrs(SMALL, robot), robot)
     np.testing.assert_array_equal(reused.q, motions[CYCLIC.name].q)
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", SPOILT)
 def test_a_part_that_is_not_its_step_is_solved_again(tmp_path, small_dataset, robot, capsys, case):
     """A part is reused only if it holds the one step its name stands for, solved with the
@@ -114,11 +116,12 @@ def test_a_part_that_is_not_its_step_is_solved_again(tmp_path, small_dataset, ro
     motions, _ = read_motions(small_dataset)
     part = tmp_path / "cyclic_200_L.h5"
     write_motions(part, *spoil(motions, part_attrs(SMALL, robot)))
-    assert _finished_part(part, CYCLIC, part_attrs(SMALL, robot), robot) is None
+    assert finished_part(part, CYCLIC, part_attrs(SMALL, robot), robot) is None
     _assert_warned(capsys, part, *words)
     assert not part.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("damage", ["not HDF5", "no tau"])
 def test_a_damaged_part_is_solved_again(tmp_path, small_dataset, robot, capsys, damage):
     motions, _ = read_motions(small_dataset)
@@ -129,7 +132,7 @@ def test_a_damaged_part_is_solved_again(tmp_path, small_dataset, robot, capsys, 
     else:
         with h5py.File(part, "r+") as f:
             del f[f"motions/{CYCLIC.name}/tau"]
-    assert _finished_part(part, CYCLIC, part_attrs(SMALL, robot), robot) is None
+    assert finished_part(part, CYCLIC, part_attrs(SMALL, robot), robot) is None
     _assert_warned(capsys, part, "not a readable HDF5" if damage == "not HDF5" else "array 'tau' is missing")
     assert not part.exists()
 

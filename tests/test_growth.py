@@ -141,6 +141,7 @@ def test_the_models_walk_lies_on_the_warm_up_walks_knots_from_rest_to_its_footst
         np.testing.assert_allclose(data.oMf[robot.foot_frames[side]].translation[:2], [end, y], atol=0.01, err_msg=side)
 
 
+@pytest.mark.slow
 def test_steps_known_from_the_dataset_being_grown_are_not_solved_again(small_dataset, tmp_path):
     from cocomopl.dataset.generate import generate
     from cocomopl.motion_file import read_motions
@@ -194,6 +195,7 @@ def test_a_model_of_another_robot_is_refused_before_any_solving(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["other.npz"]
 
 
+@pytest.mark.slow
 def test_the_neighbours_oc_walk_lies_on_the_warm_up_walks_knots(robot, small_dataset):
     """Continuation's guess: the dataset's start, cyclic and stop steps of a trained length,
     chained, mapped onto the knots of the warm-up walk of a new length."""

@@ -65,6 +65,7 @@ def test_the_expected_decrease_is_the_models_best_over_step_lengths_up_to_one(d)
     assert best_expected_decrease(*d) == pytest.approx(best, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_a_solved_steps_states_are_realised_by_inverse_dynamics_inside_its_cones(robot, small_dataset):
     motions, _ = read_motions(small_dataset)
     cyclic = motions[StepSpec("cyclic", SMALL_LENGTH, SMALL_LENGTH).name]

@@ -44,6 +44,7 @@ def test_check_of_one_motion_says_one_motion(robot, tmp_path, capsys):
     assert f"{path}: 1 motion, 0 step junctions" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_info_and_check_count_the_same_junctions_under_their_names(small_dataset, capsys):
     """Generation measures the junctions between solved steps; the check measures these and
     their mirror images', twice as many, and each says which it counts."""

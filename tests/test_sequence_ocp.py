@@ -12,6 +12,7 @@ from cocomopl.ocp.chained_steps import solve_sequence
 from conftest import SMALL, SMALL_LENGTH
 
 
+@pytest.mark.slow
 def test_a_chained_walk_is_one_consistent_motion_on_its_footsteps(robot, small_dataset):
     motions, attrs = read_motions(small_dataset)
     specs = sequence_specs([SMALL_LENGTH] * 3)  # start, cyclic, stop: left, right, left swing

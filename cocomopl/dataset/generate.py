@@ -209,7 +209,7 @@ def _part_problem(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> t
     return motion, problem or _solver_problem(motion)
 
 
-def _finished_part(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> Motion | None:
+def finished_part(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> Motion | None:
     """The motion of the part ``path`` saved by an earlier run, or None.
 
     It is reused only if it is the step ``spec`` its name stands for, solved with the same
@@ -338,7 +338,7 @@ def generate(
     and write the dataset to ``output``.
 
     Parts of an earlier run in ``<output>.parts/`` are reused if they pass
-    :func:`_finished_part`, and so are the steps ``known`` (those of a dataset being grown).
+    :func:`finished_part`, and so are the steps ``known`` (those of a dataset being grown).
     ``walk_guesses``: per length (or footstep), the warm-up walk's initial states and torques (a grown
     length's, from the model); those lengths are solved each from its own guess, not by
     continuation.  ``record`` is added to the dataset's attributes.  ``workers`` local processes (at most :func:`max_workers`), or
@@ -367,7 +367,7 @@ def generate(
         attrs = part_attrs(settings, robot)
         done = {spec: motion for spec, motion in (known or {}).items() if spec in specs}
         done.update({spec: motion for spec in specs if spec not in done
-                     and (motion := _finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None})
+                     and (motion := finished_part(_part_path(parts, spec), spec, attrs, robot)) is not None})
         reused = len(done)
         start = time.perf_counter()
         where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"

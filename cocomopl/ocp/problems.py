@@ -91,7 +91,7 @@ def next_step_state(robot: Robot, x_start_next: np.ndarray, landed_at: tuple[flo
 
 
 def _knots(duration: float, dt: float) -> int:
-    return max(2, int(round(duration / dt)))
+    return max(2, round(duration / dt))
 
 
 def walk_phases(

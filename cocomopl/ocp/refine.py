@@ -225,7 +225,7 @@ def _phases(spec: StepSpec, durations: list[float], robot: Robot, settings: OCPS
     if len(timed) != len(durations):
         raise Error(f"step {spec.name} has {len(durations)} phases in the walk; its OCP has {len(timed)}")
     for phase, duration in zip(timed, durations):
-        phase.knots = max(2, int(round(duration / settings.dt)))
+        phase.knots = max(2, round(duration / settings.dt))
     return phases
 
 

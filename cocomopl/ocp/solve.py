@@ -394,7 +394,7 @@ def solve_length(
 
         best = descend(evaluate, settings.ss_duration, settings.ss_search_step, bounds=settings.ss_bounds)
         if tried[round(best, 6)] is None:
-            return {kind: None for kind in kinds}, {"attempts": attempts, "duration_search": search}
+            return dict.fromkeys(kinds), {"attempts": attempts, "duration_search": search}
         solutions["cyclic"], attempts["cyclic"], walk, cyclic_start, settings = tried[round(best, 6)]
     else:
         walk = warm_up_walk(robot, footstep, settings, guess=walk_guess, controls=walk_controls,
