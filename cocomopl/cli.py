@@ -21,8 +21,18 @@ from cocomopl.options import Parser, json_options, negative_values_joined, repla
 def cmd_dataset_generate(args):
     from cocomopl.jobs import generate_dataset
 
-    lengths, extra = args.lengths_mm, None  # None: the default extra transitions of these lengths
-    if args.gaits is not None:
+    lengths, extra, record = args.lengths_mm, None, None  # None: the default extra transitions of these lengths
+    if args.step_space is not None:
+        from cocomopl.dataset.design import step_space_design
+        from cocomopl.robot import Robot
+
+        if args.extra_transitions_mm is not None:
+            raise Error("--extra-transitions-mm joins straight lengths; a step-space design has its own transitions")
+        footsteps, pairs = args.step_space
+        design = step_space_design(Robot(args.robot), footsteps=footsteps, pairs=pairs, sampling=args.sampling,
+                                   seed=args.design_seed)
+        lengths, extra, record = design.footsteps, design.pairs, design.record
+    elif args.gaits is not None:
         from cocomopl.dataset.plan import gait_footsteps
         from cocomopl.robot import Robot
 
@@ -36,7 +46,8 @@ def cmd_dataset_generate(args):
     replacing(args, args.out, inputs=[args.robot])
     return generate_dataset(args.out, lengths, extra, robot=args.robot, dt=args.dt, max_iterations=args.max_iterations,
                             load_transfer_weight=args.load_transfer_weight, min_knee_flexion=args.min_knee_flexion_rad,
-                            workers=args.workers, scheduler=args.scheduler, command=args.command_line, progress=True)
+                            workers=args.workers, scheduler=args.scheduler, command=args.command_line, progress=True,
+                            record=record, continuation=record is None)
 
 
 def cmd_dataset_info(args):
@@ -80,7 +91,7 @@ def cmd_train(args):
 def cmd_model_info(args):
     from cocomopl.jobs import model_info
 
-    return model_info(args.file, args.verbose)
+    return model_info(args.file, args.verbose, coverage_samples=args.coverage_samples)
 
 
 def cmd_generate(args):
@@ -155,6 +166,7 @@ def cmd_export_model(args):
 # ---------------------------------------------------------------------------- the parser
 def _dataset_parsers(sub) -> None:
     from cocomopl import options as o
+    from cocomopl.dataset.design import DEFAULT_STEP_SPACE, DEFAULT_STEP_SPACE_TEXT, SAMPLINGS
     from cocomopl.dataset.generate import DT_RANGE_S, MIN_PHASE_KNOTS, WORKERS_PER_CORE
     from cocomopl.dataset.plan import DEFAULT_EXTRA_TRANSITIONS_M, DEFAULT_GAIT_GRID_TEXT, DEFAULT_LENGTHS_M
     from cocomopl.ocp.settings import OCPSettings
@@ -173,12 +185,23 @@ def _dataset_parsers(sub) -> None:
                         help="an omnidirectional set: the steady gaits of a grid of footstep lengths and widths (mm) "
                         f"and turns (deg); alone, the default grid {DEFAULT_GAIT_GRID_TEXT}; given again, the gaits of "
                         "every grid (docs/method.md#omnidirectional-training-set)")
+    design.add_argument("--step-space", type=o.step_space, nargs="?", const=DEFAULT_STEP_SPACE,
+                        metavar="FOOTSTEPS/PAIRS",
+                        help="an omnidirectional set over the whole step space: FOOTSTEPS footsteps spread over the "
+                        "footstep range, each a start, cyclic and stop step, and transitions joining neighbours and "
+                        f"PAIRS more pairs, both ways (default: {DEFAULT_STEP_SPACE_TEXT}; "
+                        "docs/method.md#omnidirectional-training-set)")
     design.add_argument("--lengths-mm", type=o.training_lengths_mm, default=DEFAULT_LENGTHS_M, metavar="MM,MM,...",
                         help=f"training step lengths in millimetres, straight ahead (default: {lengths_mm})")
     extra = ",".join(f"{1000 * a:g}-{1000 * b:g}" for a, b in DEFAULT_EXTRA_TRANSITIONS_M)
     gen.add_argument("--extra-transitions-mm", metavar="A-B,...",
                      help="transitions between training lengths that are not neighbours, in millimetres, solved both "
                      f"ways (default: {extra}, those whose lengths are trained; '' for none)")
+    gen.add_argument("--sampling", choices=SAMPLINGS, default="maximin",
+                     help="how --step-space spreads its footsteps and pairs: maximin fills the range greedily, random "
+                     "draws them uniformly, as for a held-out set (default: %(default)s)")
+    gen.add_argument("--design-seed", type=o.non_negative_int, default=0, metavar="N",
+                     help="seed of the --step-space design (default: %(default)s)")
     gen.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
                      help="bundled robot name or robot description file (default: %(default)s)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", metavar="FILE.h5", help="output HDF5 file (default: %(default)s)")
@@ -263,6 +286,8 @@ def _primitives_parsers(sub) -> None:
     info = model.add_parser("info", help="summarise a model (default: the bundled one)")
     info.add_argument("file", nargs="?", metavar="MODEL.npz", help="model file (default: the bundled one)")
     info.add_argument("--verbose", action="store_true", help="add the model-selection table")
+    info.add_argument("--coverage-samples", type=o.positive_int, metavar="N",
+                      help="allowed transitions drawn to measure the coverage, a count (default: 4000)")
     info.set_defaults(func=cmd_model_info)
 
     generate = sub.add_parser("generate", help="synthesise a walk from step lengths with the primitives")

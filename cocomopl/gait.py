@@ -64,6 +64,14 @@ def footstep_origin(landed: np.ndarray, side: str, footstep: Sequence[float], *,
 FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.165), "turn": (-math.radians(25), math.radians(25))}
 FEET_GAP = 0.01  # m between the feet's meshes, both flat on the ground
 
+# Weights of a footstep's width (m/m) and turn (m/rad) in the metric the weight GPs and the
+# training design measure footsteps in, metres of step length: each maps its range
+# (FOOTSTEP_RANGE: 200 mm without the 15 mm turns add, 50 degrees) onto the lengths' 550 mm,
+# so that one kernel width spans the three alike.
+WIDTH_SCALE = 2.75
+TURN_SCALE = 0.63
+FOOTSTEP_METRIC = np.array([1.0, WIDTH_SCALE, TURN_SCALE])  # (length, width, turn) -> metres
+
 
 def check_footstep(robot: Robot, side: str, footstep: Sequence[float]) -> None:
     """An :class:`Error` unless sole ``side`` may land at the ``footstep`` (length, width, turn)

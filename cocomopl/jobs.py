@@ -67,12 +67,16 @@ def generate_dataset(
     scheduler: str | None = None,
     command: str | None = None,
     progress: bool = False,
+    record: dict | None = None,
+    continuation: bool = True,
 ) -> DatasetSummary:
-    """Solve the training OCPs for step ``lengths`` (m) and write the dataset to ``out``.
+    """Solve the training OCPs for step ``lengths`` (m; or footsteps) and write the dataset to ``out``.
 
     The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults, with
     each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
-    ``min_knee_flexion`` (rad) that is not None instead.  See
+    ``min_knee_flexion`` (rad) that is not None instead; ``record`` (how the set was
+    designed) is added to the dataset's attributes; ``continuation=False`` solves each
+    footstep from its own guess (a step-space design).  See
     :func:`cocomopl.dataset.generate.generate` for the summary returned.
     """
     from cocomopl.dataset.generate import generate
@@ -84,7 +88,7 @@ def generate_dataset(
     out = output_file(out, "dataset.h5", inputs=[robot])  # a robot description file is an input
     return DatasetSummary(**generate(out, lengths, extra_transitions, robot_name=robot, settings=settings,
                                      workers=workers, scheduler=scheduler, command=command or "Python API",
-                                     progress=progress))
+                                     progress=progress, record=record, continuation=continuation))
 
 
 def dataset_summary(path: str | Path | None = None) -> DatasetInfo:
@@ -399,16 +403,25 @@ def train_model(
                        bound=best.bound_, explained_variance=best.explained_variance_, selection=rows, wall_time_s=wall)
 
 
-def model_info(path: str | Path | None = None, verbose: bool = False) -> ModelInfo:
+def model_info(path: str | Path | None = None, verbose: bool = False, *,
+               coverage_samples: int | None = None) -> ModelInfo:
     """Summary of a model file (default: the bundled one); ``verbose`` adds the
-    model-selection table.  The training dataset is named by file name and checksum."""
-    from cocomopl.primitives.model_file import model_metadata
+    model-selection table.  The training dataset is named by file name and checksum.
+
+    ``coverage`` measures how far allowed steps lie from the training steps
+    (:func:`cocomopl.primitives.coverage.coverage`, its default seed), over
+    ``coverage_samples`` transitions (default: ``DEFAULT_SAMPLES``).
+    """
+    from cocomopl.primitives.coverage import DEFAULT_SAMPLES, coverage
+    from cocomopl.primitives.model_file import load_model
 
     path = model_path(path)
-    meta = model_metadata(path)
+    model = load_model(path)
+    meta = model.metadata_
     keys = ("n_primitives", "kernel", "max_iterations", "bound", "explained_variance", "n_grid", "created", "command",
             "versions", "training_wall_time_s", "checksum", "format_version")
     return ModelInfo(file=path.name, **{k: meta.get(k) for k in keys}, dataset=_dataset_identity(meta.get("dataset") or {}),
+                     coverage=coverage(model, samples=DEFAULT_SAMPLES if coverage_samples is None else coverage_samples),
                      selection=meta.get("selection") if verbose else None)
 
 

@@ -96,6 +96,10 @@ def positive_int(text: str) -> int:
     return value
 
 
+def non_negative_int(text: str) -> int:
+    return positive_int(text) if text.strip() != "0" else 0
+
+
 def positive_float(text: str) -> float:
     value = number(text)
     if not 0 < value < float("inf"):
@@ -173,6 +177,12 @@ def gait_grid(text: str) -> tuple:
     from cocomopl.dataset.plan import parse_gait_grid
 
     return _checked(parse_gait_grid, text)
+
+
+def step_space(text: str) -> tuple[int, int]:
+    from cocomopl.dataset.design import parse_step_space
+
+    return _checked(parse_step_space, text)
 
 
 def training_lengths_mm(text: str) -> tuple[float, ...]:
@@ -287,14 +297,15 @@ def synthesis_options(parser: argparse.ArgumentParser) -> None:
                       "row (docs/cli.md#footstep-files)")
     walk.add_argument("--to", type=goal, action="append", metavar="X_M,Y_M,YAW_DEG",
                       help="walk to a goal pose of the feet's midpoint, metres and degrees from the start, on "
-                      "footsteps planned within the model's learned range (docs/method.md#footstep-planner); "
+                      "footsteps planned within the model's learned range and training support (docs/method.md#footstep-planner); "
                       "given again, walk on to the next goal after stopping at this one")
     parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
     parser.add_argument("--dt", type=positive_float, metavar="S",
                         help=f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})")
     parser.add_argument("--first-swing", choices=FIRST_SWINGS,
                         help=f"with --lengths-mm: the foot that steps first (default: {FIRST_SWINGS[0]})")
-    parser.add_argument("--strict", action="store_true", help="refuse steps outside the training data's support")
+    parser.add_argument("--strict", action="store_true", help="refuse a walk with a step outside the model's training support "
+                        "(otherwise one warning per such step)")
     parser.add_argument("--refine", action="store_true",
                         help="refine every generated step by the OCP it was learned from (docs/method.md#refinement)")
     parser.add_argument("--data", metavar="DATASET.h5",

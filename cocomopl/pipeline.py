@@ -35,7 +35,7 @@ from cocomopl.provenance import stamp
 from cocomopl.requests import PLAN_DT, Footsteps, Goal, Goals, Refinement, StraightSteps, WalkRequest
 from cocomopl.results import GoalErrors, RefineSummary, ReproduceReport, SimulationRecord, WalkReport
 from cocomopl.robot import DEFAULT_ROBOT, Robot
-from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps
+from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, outside_support, support_radius
 from cocomopl.synthesis.world import place_steps, replace_stretch
 
 if TYPE_CHECKING:  # the simulator is imported where a walk is simulated
@@ -141,21 +141,48 @@ def _noting_footsteps(motion: Motion, landings: Sequence[Landing]) -> Motion:
     return motion
 
 
-def plan_in_support(robot: Robot, model: MovementPrimitives, goals: list[Goal], *, strict: bool = False) -> list[StepSpec]:
+def plan_in_support(robot: Robot, model: MovementPrimitives, goals: list[Goal]) -> list[StepSpec]:
     """The steps of a walk through ``goals`` (:func:`~cocomopl.planning.goal.plan_through`)
-    within ``model``'s learned footstep range, every step within its training support where
-    such a walk exists: the learned range is a box around footsteps that need not fill it.
-    Where none exists, the walk in the range, whose steps are then warned about, or with
-    ``strict`` the planner's error."""
+    within ``model``'s learned footstep range and every step inside its training support:
+    the learned range is a box around footsteps that need not fill it, so a plan with a step
+    outside the support gives way to the next (more steps, each smaller).
+
+    Raises
+    ------
+    Error
+        If no plan within the range reaches a goal (the planner's error), or none within the
+        support: naming the goal and, of the plans refused for it, the step that lies least
+        far outside (:func:`~cocomopl.synthesis.step_chain.outside_support`).
+    """
+    reached = []  # the plans accepted, one per goal reached
+    nearest = None  # (excess over the support radius, step number, step): the refused plan least far outside
+
     def supported(specs: list[StepSpec]) -> bool:
-        return all(step.in_support for step in model.predict_many(specs))
+        nonlocal nearest
+        first = sum(len(plan) for plan in reached) + 1
+        outside = [(step.distance - support_radius(model, spec), number, step)
+                   for number, (spec, step) in enumerate(zip(specs, model.predict_many(specs)), start=first)
+                   if not step.in_support]
+        if not outside:
+            reached.append(specs)
+            nearest = None
+            return True
+        farthest = max(outside, key=lambda item: item[0])
+        if nearest is None or farthest[0] < nearest[0]:
+            nearest = farthest
+        return False
 
     try:
         return plan_through(robot, goals, limits=model.footstep_range(), accept=supported)
     except Error:
-        if strict:
+        if nearest is None:  # no plan within the range either
             raise
-    return plan_through(robot, goals, limits=model.footstep_range())
+    x, y, yaw = goals[len(reached)]
+    which = f"goal {len(reached) + 1} of {len(goals)}" if len(goals) > 1 else "the goal"
+    _, number, step = nearest
+    raise Error(f"no walk within the model's support reaches {which} ({x:g} m, {y:g} m, {math.degrees(yaw):g} deg): "
+                f"the nearest plan in its footstep range has step {number} ({step.spec.name}) "
+                f"{outside_support(model, step)}")
 
 
 def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedWalk:
@@ -164,11 +191,12 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
     The walk follows the request's path: straight step lengths (first swing as given); the
     world landings of a footstep plan (:mod:`cocomopl.planning.footsteps`); or goal poses
     (x, y in m, yaw in rad) of the feet's midpoint, reached in turn, stopping at each, on
-    footsteps planned within the model's learned footstep range
-    (:func:`~cocomopl.planning.goal.plan_through`), within the training support where it
-    can be (:func:`plan_in_support`).  Steps outside the support are warned about
-    (``warnings``), or refused with ``strict``.  So is a walk that the dynamics filter could
-    not make consistent (its ZMP more than ``FILTER_WARNING_M`` RMS from the learned one):
+    footsteps planned within the model's learned footstep range and training support
+    (:func:`plan_in_support`; a goal no such plan reaches is refused).  Every step outside
+    the support is warned about (``warnings``, one line naming it:
+    :func:`~cocomopl.synthesis.step_chain.generate_steps`), or with ``strict`` the walk is
+    refused naming the first.  A walk that the dynamics filter could not make consistent
+    (its ZMP more than ``FILTER_WARNING_M`` RMS from the learned one) is warned about too:
     most such walks fall.  With the request's refinement the walk is then refined by
     optimal control (:func:`refine`; ``progress`` shows its bar): ``refined`` and
     ``refinement``.
@@ -186,7 +214,7 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
     elif isinstance(path, Footsteps):
         specs = walk_specs(robot, path.landings)
     else:
-        specs = plan_in_support(robot, model, list(path.poses), strict=request.strict)
+        specs = plan_in_support(robot, model, list(path.poses))
     dt = PLAN_DT if request.dt is None else request.dt
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", OutOfSupportWarning)

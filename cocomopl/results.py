@@ -19,6 +19,7 @@ from cocomopl.errors import plural
 
 if TYPE_CHECKING:
     from cocomopl.analysis.metrics import WalkMetrics
+    from cocomopl.primitives.coverage import Coverage
 
 # field metadata: OPTIONAL fields are left out of the JSON when None; INLINE fields (dicts or
 # results) are spliced into it; HIDDEN fields are for the table only
@@ -327,6 +328,7 @@ class ModelInfo(Result):
     checksum: str | None
     format_version: int | None
     dataset: dict
+    coverage: Coverage
     selection: list[dict] | None = field(default=None, metadata=OPTIONAL)  # with --verbose
 
     def to_table(self) -> str:
@@ -337,6 +339,7 @@ class ModelInfo(Result):
             "explained variance: " + ", ".join(f"{g} {100 * v:.3f}%" for g, v in ev.items()),
             f"trained {self.created} by: {self.command}",
             f"on {dataset.get('name', '?')}{checksum} ({dataset.get('steps', '?')} steps)",
+            *self.coverage.table_lines(),
         ]
         if self.selection:
             lines += ["model selection:", *selection_table(self.selection, (self.kernel, self.n_primitives))]

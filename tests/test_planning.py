@@ -4,7 +4,6 @@ goal pose (issue #25, part 5)."""
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -231,28 +230,3 @@ def test_a_goal_is_planned_within_the_models_support():
 
     walk = generate_walk(WalkRequest(Goals([(-0.352, 0.092, math.radians(-58.8))])))
     assert all(step.in_support for step in walk.steps) and not walk.warnings
-
-
-class _NothingSupported:
-    """A model stand-in whose every step is outside its support."""
-
-    def __init__(self, model):
-        self.footstep_range = model.footstep_range
-
-    def predict_many(self, specs):
-        return [SimpleNamespace(in_support=False) for _ in specs]
-
-
-@pytest.mark.slow
-def test_a_goal_with_no_supported_plan_gets_the_plan_in_range_unless_strict(robot, monkeypatch):
-    from cocomopl.data import BUNDLED_OMNI_MODEL
-    from cocomopl.pipeline import plan_in_support
-    from cocomopl.planning import goal
-    from cocomopl.primitives.model_file import load_model
-
-    monkeypatch.setattr(goal, "MAX_LANDINGS", 6)  # a plan refused at every length is tried at each
-    model = _NothingSupported(load_model(BUNDLED_OMNI_MODEL))
-    goals = [(0.6, 0.0, 0.0)]
-    assert plan_in_support(robot, model, goals) == plan_through(robot, goals, limits=model.footstep_range())
-    with pytest.raises(Error, match="the model's support"):
-        plan_in_support(robot, model, goals, strict=True)

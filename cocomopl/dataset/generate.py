@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cocomopl.dataset.design import nearest_neighbour_path
 from cocomopl.dataset.plan import default_transitions, successors, training_specs
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
@@ -332,6 +333,7 @@ def generate(
     known: dict[StepSpec, Motion] | None = None,
     walk_guesses: dict[float, tuple] | None = None,
     record: dict | None = None,
+    continuation: bool = True,
 ) -> dict:
     """Solve the training set for ``lengths`` (m; or footsteps, :class:`~cocomopl.motion.Footstep`)
     and ``extra_transitions`` (pairs of them; None: :func:`~cocomopl.dataset.plan.default_transitions`)
@@ -341,7 +343,9 @@ def generate(
     :func:`finished_part`, and so are the steps ``known`` (those of a dataset being grown).
     ``walk_guesses``: per length (or footstep), the warm-up walk's initial states and torques (a grown
     length's, from the model); those lengths are solved each from its own guess, not by
-    continuation.  ``record`` is added to the dataset's attributes.  ``workers`` local processes (at most :func:`max_workers`), or
+    continuation.  ``continuation=False`` solves every length from its own kinematic
+    guess, all at once: for footsteps spread far apart (a step-space design), where a
+    neighbour's walk is no guide (docs/method.md#omnidirectional-training-set).  ``record`` is added to the dataset's attributes.  ``workers`` local processes (at most :func:`max_workers`), or
     the Dask cluster at ``scheduler``, solve the rest.  The command line also bounds
     ``settings.dt`` to :data:`DT_RANGE_S`; this function takes any.
 
@@ -371,8 +375,8 @@ def generate(
         reused = len(done)
         start = time.perf_counter()
         where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
-        failed, continuation = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
-                                              progress, walk_guesses)
+        failed, swept = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
+                                       progress, walk_guesses, continuation=continuation)
         wall = time.perf_counter() - start
         if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
             raise Error(
@@ -386,7 +390,7 @@ def generate(
                                        [list(as_footstep(a)), list(as_footstep(b))] for a, b in extra_transitions],
                "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
                "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
-               "continuation": continuation,
+               "continuation": swept,
                "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes", **(record or {})}
         motions = _write_dataset(output, robot, specs, done, run)
     if not failed:
@@ -413,10 +417,12 @@ def _solve_missing(
     where: str,
     progress: bool,
     walk_guesses: dict[float, tuple] | None = None,
+    *,
+    continuation: bool = True,
 ) -> tuple[dict[str, list], dict]:
     """Solve the ``specs`` not in ``done``, adding each converged one to ``done`` and saving
     it at once in ``parts`` (with ``attrs``): the lengths' steps by continuation
-    (:func:`solve_by_continuation`), then the transitions.  Returns the attempts of those
+    (:func:`solve_by_continuation`, or each from its own guess), then the transitions.  Returns the attempts of those
     that failed and the continuation's record."""
     from tqdm import tqdm
 
@@ -454,8 +460,8 @@ def _solve_missing(
                        and s not in done]
             if missing:
                 todo[f.gait_key] = missing
-        if walk_guesses:
-            record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses)
+        if walk_guesses or not continuation:
+            record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses or {})
         else:
             record = solve_by_continuation(executor, robot_name, settings, todo=todo, done=done, collect=collect_one,
                                            note=note)
@@ -491,13 +497,15 @@ def solve_by_continuation(executor: cf.Executor, robot_name: str, settings: OCPS
     (whose second cyclic step gives ``S(L)`` and whose steps warm-start the length's OCPs)
     takes its upper body from the walk of the length solved before it in the same sweep
     (:func:`~cocomopl.ocp.solve.continued_guess`), so that neighbours stay on one solution branch.  Where the sweeps disagree, the length takes the
-    sweep whose OCPs converged more often, then the lower summed cost.  Footsteps are swept
-    in the order of (length, width, turn).  Returns, per length (mm; a footstep's
+    sweep whose OCPs converged more often, then the lower summed cost.  Lengths are swept
+    in increasing order, footsteps along a nearest-neighbour path
+    (:func:`~cocomopl.dataset.design.nearest_neighbour_path`).  Returns, per length (mm; a footstep's
     :attr:`~cocomopl.motion.Footstep.label`), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
     and the sweep chosen.  ``note`` gets a line as each sweep finishes a length: a length's
     OCPs are only collected once both sweeps have solved it, halfway through.
     """
-    order = sorted(todo, key=as_footstep)
+    path = nearest_neighbour_path(todo)
+    order = [next(key for key in todo if as_footstep(key) == f) for f in path]
     if not order:
         return {}
     chains = {sweep: order if sweep == "ascending" else order[::-1] for sweep in SWEEPS[: 1 if len(order) < 2 else 2]}

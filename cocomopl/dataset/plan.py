@@ -30,12 +30,11 @@ DEFAULT_LENGTHS_M = (0.15, 0.20, 0.25, 0.30, 0.35, 0.40)
 DEFAULT_EXTRA_TRANSITIONS_M = ((0.15, 0.25), (0.25, 0.35))
 
 
-# The steady gaits of the omnidirectional set: every combination of a length (backward, in
-# place, forward), a width (none, side steps) and a turn, so that the learned range, the box
-# the footstep planner plans in, holds training steps at its corners.  Turns reach 25
-# degrees, the gaits stepping out beyond 12 (``planning.goal.turn_step_out``); the grid is
-# the bundled set, 343 OCPs in about 30 minutes on 2 cores
-# (docs/method.md#omnidirectional-training-set).
+# The steady gaits of a gait-grid set: every combination of a length (backward, in place,
+# forward), a width (none, side steps) and a turn, so that the learned range, the box the
+# footstep planner plans in, holds training steps at its corners.  Turns reach 25 degrees, the
+# gaits stepping out beyond 12 (``planning.goal.turn_step_out``): 343 OCPs in about 30
+# minutes on 2 cores (docs/method.md#omnidirectional-training-set).
 DEFAULT_GAIT_GRID_TEXT = "-150,0,150,300,400/0,75,150/0,12,25"
 
 

@@ -100,13 +100,15 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], *, limits: dict
         from the feet side by side at the origin facing +x
     limits : (low, high) per footstep ``"length"``, ``"width"``, ``"turn"`` the plan must
         keep within (default: :data:`~cocomopl.gait.FOOTSTEP_RANGE`); a model's learned range
-    accept : a further test a plan must pass, e.g. that a model has learned steps near all of
-        its steps (``generate --strict``); a plan it refuses gives way to the next
+    accept : a further test a plan must pass, e.g. that every step lies within a model's
+        training support (:func:`cocomopl.pipeline.plan_in_support`); a plan it refuses gives
+        way to the next
 
     Raises
     ------
     Error
-        If no gait of up to ``MAX_LANDINGS`` landings reaches the goal within the limits.
+        If no gait of up to ``MAX_LANDINGS`` landings reaches the goal within the limits (and
+        passes ``accept``).
     """
     limits = FOOTSTEP_RANGE if limits is None else limits
     goal = np.array([float(v) for v in goal])
@@ -115,18 +117,21 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], *, limits: dict
     goal[2] = wrap_angle(goal[2])
     # lead with the foot on the side the walk goes: it steps outward first
     leads = ("left", "right") if goal[2] > 0 or (goal[2] == 0 and goal[1] >= 0) else ("right", "left")
+    refused = False  # by accept: the range alone would have had a plan
     for n in range(2, MAX_LANDINGS + 1):
         for lead in leads:
             gait = _solve(robot, goal, n, lead, limits)
             if gait is None:
                 continue
             specs = gait_specs(n, lead, gait)
-            if _clear(robot, specs) and (accept is None or accept(specs)):
-                return specs
+            if _clear(robot, specs):
+                if accept is None or accept(specs):
+                    return specs
+                refused = True
     raise Error(
         f"no steady walk of up to {MAX_LANDINGS} steps reaches ({goal[0]:g} m, {goal[1]:g} m, "
         f"{math.degrees(goal[2]):g} deg) within the footstep range "
-        + ("and the model's support " if accept is not None else "")
+        + ("and the model's support " if refused else "")
         + ", ".join(f"{k} {_shown(k, lo)}..{_shown(k, hi)}" for k, (lo, hi) in limits.items())
         + (" (a model of straight steps: it reaches goals straight ahead only)"
            if limits["width"] == (0.0, 0.0) and limits["turn"] == (0.0, 0.0) else "")

@@ -21,14 +21,13 @@ import numpy as np
 from tqdm import tqdm
 
 from cocomopl.errors import Error, require_extra
+from cocomopl.gait import TURN_SCALE, WIDTH_SCALE
 from cocomopl.motion import StepSpec
 from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, TIME_KERNELS
 from cocomopl.primitives import durations as duration_gp
 from cocomopl.primitives.checks import Check, one_of, whole
 from cocomopl.primitives.training import (
     FOOTSTEP_PARAMETERS,
-    TURN_SCALE,
-    WIDTH_SCALE,
     TrainingSteps,
     learned_parts,
     parameter_count,
@@ -38,6 +37,8 @@ from cocomopl.primitives.training import (
     step_lengths,
     step_type,
 )
+
+SUPPORT_TOLERANCE = 1e-9  # m: a training step's own distance may round above its type's radius
 
 SIGNAL_GROUPS = ("joints", "zmp", "pelvis")
 CONDITION_RATIO = 1e-6  # start-state noise relative to the predicted start variance: "nearly equal"
@@ -575,7 +576,7 @@ class MovementPrimitives:
             PredictedStep(spec, self.tau_, [_Part(mean[q], w[q], var[q], gain[q], cross[q], observed[q])],
                           primitives=primitives, boundaries=c.boundaries, durations=durations[q],
                           duration_std=duration_std[q], distance=float(distance[q]),
-                          in_support=bool(distance[q] <= c.support_radius + 1e-9))
+                          in_support=bool(distance[q] <= c.support_radius + SUPPORT_TOLERANCE))
             for q, spec in enumerate(specs)
         ]
 

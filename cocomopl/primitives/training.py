@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from cocomopl.errors import Error
+from cocomopl.gait import TURN_SCALE, WIDTH_SCALE
 from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
 
@@ -28,12 +29,6 @@ def step_type(spec: StepSpec) -> str:
     return f"{spec.kind}_{spec.swing_side}"
 
 
-# Weights of a footstep's width (m/m) and turn (m/rad) in the weight GPs' inputs, which
-# measure everything in metres of step length: each maps its range (FOOTSTEP_RANGE: 200 mm
-# without the 15 mm turns add, 50 degrees) onto the lengths' 550 mm, so that one kernel width
-# spans the three alike.
-WIDTH_SCALE = 2.75
-TURN_SCALE = 0.63
 STRAIGHT_PARAMETERS = 2  # start and end length: all a model of straight steps has
 FOOTSTEP_PARAMETERS = 6  # and the start and end widths and turns
 

@@ -10,33 +10,52 @@ import numpy as np
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep, signal_groups
+from cocomopl.primitives.training import step_type
 
 
 class OutOfSupportWarning(UserWarning):
     """A step's parameters lie outside the training data's support: trust it less."""
 
 
-def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], strict: bool = False) -> list[PredictedStep]:
+def generate_steps(model: MovementPrimitives, specs: Sequence[StepSpec], *, strict: bool = False) -> list[PredictedStep]:
     """Predict each step, conditioning its start on the previous step's end.
 
-    Steps outside the training support raise :class:`Error` with ``strict``, and otherwise
-    come with an :class:`OutOfSupportWarning` naming their distance to the data.
+    Every walk's steps, whether from step lengths, a footstep file or the planner, are
+    checked against the model's training support here: each step outside it comes with one
+    :class:`OutOfSupportWarning` naming it (its number in the walk, from 1, and its name),
+    its distance from the nearest training step and the support radius
+    (:func:`outside_support`), and its predicted joint-angle standard deviation; with
+    ``strict`` the first such step raises :class:`Error` instead.
     """
     steps, end = [], None
-    for spec, step in zip(specs, model.predict_many(specs)):
+    for number, (spec, step) in enumerate(zip(specs, model.predict_many(specs)), start=1):
         if end is not None:
             step = step.conditioned_on(end)
         if not step.in_support:
-            message = (
-                f"{spec.name} is {step.distance * 1000:.0f} mm from the nearest training step of its type; "
-                f"predicted joint-angle std up to {joint_std_max(model, step):.3f} rad"
-            )
+            message = (f"step {number} ({spec.name}): {outside_support(model, step)}; "
+                       f"predicted joint-angle std up to {joint_std_max(model, step):.3f} rad")
             if strict:
                 raise Error(f"refused (--strict): {message}")
             warnings.warn(message, OutOfSupportWarning, stacklevel=2)
         steps.append(step)
         end = in_next_step_frame(model, spec, step.values[-1])
     return steps
+
+
+def support_radius(model: MovementPrimitives, spec: StepSpec) -> float:
+    """The support radius of the learned type of ``spec`` (m, in the model's inputs,
+    :func:`~cocomopl.primitives.training.step_lengths`): the largest distance from one of its
+    training steps to the nearest other.  A type learned in parts takes its parts' smallest
+    (they are parts of the same training steps)."""
+    return min(model.type_arrays(t).support_radius for t in model.trajectory_types(step_type(spec)))
+
+
+def outside_support(model: MovementPrimitives, step: PredictedStep) -> str:
+    """How far ``step`` lies from the model's training steps, against its support radius, as
+    the warnings and refusals say it: e.g. ``"216 mm from the nearest training step of its
+    type, support radius 212 mm"``."""
+    return (f"{step.distance * 1000:.0f} mm from the nearest training step of its type, "
+            f"support radius {support_radius(model, step.spec) * 1000:.0f} mm")
 
 
 def in_next_step_frame(model: MovementPrimitives, spec: StepSpec, end: np.ndarray) -> np.ndarray:
