@@ -6,7 +6,7 @@ solved at footsteps drawn uniformly over the whole allowed range, every paramete
 sign (backward and forward, inward and outward, toe-in and toe-out), start and end footsteps
 drawn independently, on a design seed nothing was tuned on::
 
-    cocomopl dataset generate --step-space 12/32 --sampling random --design-seed 2027 --out held.h5
+    cocomopl dataset generate --step-space 10/30 --sampling random --design-seed 2027 --out held.h5
 
 Reports the RMS error per signal group (legs, torso, arms in mrad; ZMP in mm; pelvis
 orientation in mrad) over the steps and the worst step of each group, with how many steps

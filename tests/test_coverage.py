@@ -51,7 +51,8 @@ def test_distances_and_support_are_those_predict_gives(omni):
     specs = [StepSpec("transition", *rng.uniform(-0.1, 0.35, 2), side, *rng.uniform(-0.05, 0.16, 2),
                       *rng.uniform(-0.4, 0.4, 2)) for side in ("left", "right") for _ in range(3)]
     specs += [StepSpec("start", 0.0, 0.3, "left", 0.0, 0.1, 0.0, 0.2), StepSpec("stop", 0.12, 0.0, "right", -0.04, 0.0, 0.3),
-              StepSpec("cyclic", 0.2, 0.2, "left", 0.05, 0.05, -0.1, -0.1)]
+              StepSpec("cyclic", 0.2, 0.2, "left", 0.05, 0.05, -0.1, -0.1),
+              StepSpec("transition", 0.9, -0.5, "left", 0.5, -0.3, 1.2, -1.2)]  # far beyond the range
     for spec in specs:
         step, (measured,) = omni.predict(spec), coverage(omni, steps=[spec]).kinds
         assert measured.fill_distance == pytest.approx(step.distance, abs=1e-12)
