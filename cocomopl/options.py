@@ -84,20 +84,24 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number in ASCII digits") from None
 
 
-def positive_int(text: str) -> int:
+def _whole_number(text: str, least: int) -> int:
     try:
         if not text.isascii():
             raise ValueError
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number in ASCII digits") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
+    if value < least:
+        raise argparse.ArgumentTypeError(f"{text!r} must be at least {least}")
     return value
 
 
+def positive_int(text: str) -> int:
+    return _whole_number(text, 1)
+
+
 def non_negative_int(text: str) -> int:
-    return positive_int(text) if text.strip() != "0" else 0
+    return _whole_number(text, 0)
 
 
 def positive_float(text: str) -> float:

@@ -504,8 +504,8 @@ def solve_by_continuation(executor: cf.Executor, robot_name: str, settings: OCPS
     and the sweep chosen.  ``note`` gets a line as each sweep finishes a length: a length's
     OCPs are only collected once both sweeps have solved it, halfway through.
     """
-    path = nearest_neighbour_path(todo)
-    order = [next(key for key in todo if as_footstep(key) == f) for f in path]
+    keys = {as_footstep(key): key for key in todo}
+    order = [keys[f] for f in nearest_neighbour_path(keys)]
     if not order:
         return {}
     chains = {sweep: order if sweep == "ascending" else order[::-1] for sweep in SWEEPS[: 1 if len(order) < 2 else 2]}
