@@ -1,7 +1,7 @@
 """The free energy reached by variational EM against the joint L-BFGS-B optimiser, per S.
 
 Both start from the same PCA start on the bundled dataset (100-point grid); EM runs until a
-round gains less than ``em.TOLERANCE`` nats or ``--rounds`` rounds, the joint optimiser
+round gains less than ``em.RELATIVE_TOLERANCE`` of the bound or ``--rounds`` rounds, the joint optimiser
 ``--iterations`` iterations.  Reports the bound, the wall time, the explained variance per
 signal group, the learned time-kernel hyperparameters, the weight kernels' median width and
 nugget, and EM's last round's gain (what stopping left on the table).

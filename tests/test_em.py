@@ -54,6 +54,17 @@ def test_the_bound_never_falls_over_the_rounds(problem):
 
 
 @pytest.mark.slow
+def test_the_fit_stops_at_the_first_round_below_the_relative_tolerance(problem):
+    X, mask, d2, tau, weights = problem
+    result = em.maximise_bound_em(X, mask, d2, tau=tau, S=S, kernel=KERNEL, max_rounds=80, signal_weights=weights)
+    bounds = np.array(result["bounds"])
+    gains = np.diff(bounds) / np.abs(bounds[1:])
+    assert result["iterations"] == len(bounds) < 80  # this small problem settles before the cap
+    assert gains[-1] < em.RELATIVE_TOLERANCE  # the round that ended it
+    assert np.all(gains[:-1] >= em.RELATIVE_TOLERANCE)  # and none before it would have
+
+
+@pytest.mark.slow
 def test_each_closed_form_update_is_a_stationary_point(problem):
     q, hyper, A, B, data, start = _start(problem)
     mask = data.mask

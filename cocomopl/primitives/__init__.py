@@ -7,7 +7,7 @@ DEFAULT_PRIMITIVES = (7, 11, 15)
 # no JAX is imported, so the CLI checks them without the [train] extra
 TIME_KERNELS = ("rbf", "matern32", "matern52")
 DEFAULT_KERNELS = TIME_KERNELS
-# EM rounds per fit, in the API and the CLI alike: the bundled model was trained with it
-# (``cocomopl train``'s default), so the defaults reproduce it.  It keeps training with model
-# selection within 5 minutes on 2 cores; what the rounds left, see docs/results.md#the-learner.
+# EM rounds per fit at most, in the API and the CLI alike: the bundled models were trained
+# with it (``cocomopl train``'s default), so the defaults reproduce them.  A fit stops earlier
+# at em.RELATIVE_TOLERANCE (14-19 rounds on the bundled sets); see docs/results.md#the-learner.
 DEFAULT_MAX_ITERATIONS = 40

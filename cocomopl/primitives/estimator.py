@@ -262,7 +262,8 @@ class MovementPrimitives:
     n_grid : int
         T, points of the normalised time grid per step.
     max_iterations : int
-        The most EM rounds; the fit stops earlier once a round gains less than ``em.TOLERANCE``.
+        The most EM rounds; the fit stops earlier once a round raises the bound by less than
+        ``em.RELATIVE_TOLERANCE`` of its value.
     verbose : bool
         Show the progress of :meth:`fit` on stderr: its iterations and the bound.
 
