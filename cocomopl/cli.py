@@ -43,11 +43,11 @@ def cmd_dataset_generate(args):
         from cocomopl.gait import parse_transitions_mm
 
         extra = parse_transitions_mm(args.extra_transitions_mm, lengths)
-    replacing(args, args.out, inputs=[args.robot])
+    replacing(args, args.out, inputs=[args.robot, *args.reuse])
     return generate_dataset(args.out, lengths, extra, robot=args.robot, dt=args.dt, max_iterations=args.max_iterations,
                             load_transfer_weight=args.load_transfer_weight, min_knee_flexion=args.min_knee_flexion_rad,
                             workers=args.workers, scheduler=args.scheduler, command=args.command_line, progress=True,
-                            record=record, continuation=record is None)
+                            record=record, continuation=record is None, reuse=args.reuse)
 
 
 def cmd_dataset_info(args):
@@ -205,6 +205,10 @@ def _dataset_parsers(sub) -> None:
     gen.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
                      help="bundled robot name or robot description file (default: %(default)s)")
     gen.add_argument("--out", default="cocomopl-dataset.h5", metavar="FILE.h5", help="output HDF5 file (default: %(default)s)")
+    gen.add_argument("--reuse", action="append", default=[], metavar="FILE.h5",
+                     help="take the steps this set needs that a dataset of the same robot and OCP settings already "
+                     "holds (a smaller --step-space design, say) instead of solving them again; given again, from "
+                     "several")
     gen.add_argument("--workers", type=o.workers, metavar="N", help=f"local worker processes, at most {WORKERS_PER_CORE} "
                      "per core (default: one per core, at most one per step length)")
     o.scheduler_option(gen)

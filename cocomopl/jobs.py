@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -69,6 +70,7 @@ def generate_dataset(
     progress: bool = False,
     record: dict | None = None,
     continuation: bool = True,
+    reuse: Sequence[str | Path] = (),
 ) -> DatasetSummary:
     """Solve the training OCPs for step ``lengths`` (m; or footsteps) and write the dataset to ``out``.
 
@@ -76,19 +78,27 @@ def generate_dataset(
     each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
     ``min_knee_flexion`` (rad) that is not None instead; ``record`` (how the set was
     designed) is added to the dataset's attributes; ``continuation=False`` solves each
-    footstep from its own guess (a step-space design).  See
+    footstep from its own guess (a step-space design).  The steps already solved in the
+    datasets ``reuse`` (same robot, same OCP settings: :func:`~cocomopl.dataset.generate.reusable_steps`)
+    are taken from them, and the files are recorded (``reused_from``).  See
     :func:`cocomopl.dataset.generate.generate` for the summary returned.
     """
-    from cocomopl.dataset.generate import generate
+    from cocomopl.dataset.generate import generate, reusable_steps
     from cocomopl.ocp.settings import OCPSettings
+    from cocomopl.robot import Robot
 
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
                  "min_knee_flexion": min_knee_flexion}
     settings = replace(OCPSettings(), **{k: v for k, v in overrides.items() if v is not None})
-    out = output_file(out, "dataset.h5", inputs=[robot])  # a robot description file is an input
+    out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input
+    known = {}
+    for path in reuse:
+        known |= reusable_steps(path, settings, Robot(robot))
+    if reuse:
+        record = {**(record or {}), "reused_from": [file_identity(path) for path in reuse]}
     return DatasetSummary(**generate(out, lengths, extra_transitions, robot_name=robot, settings=settings,
                                      workers=workers, scheduler=scheduler, command=command or "Python API",
-                                     progress=progress, record=record, continuation=continuation))
+                                     progress=progress, record=record, continuation=continuation, known=known))
 
 
 def dataset_summary(path: str | Path | None = None) -> DatasetInfo:

@@ -16,16 +16,17 @@ from cocomopl.dataset.design import (
     step_space_design,
     transition_points,
 )
-from cocomopl.dataset.generate import generate
+from cocomopl.dataset.generate import generate, reusable_steps
 from cocomopl.dataset.plan import training_specs
 from cocomopl.errors import Error
 from cocomopl.gait import FOOTSTEP_METRIC, FOOTSTEP_RANGE
 from cocomopl.jobs import check_dataset_file
 from cocomopl.motion import Footstep
 from cocomopl.motion_file import read_motions
+from cocomopl.provenance import file_identity
 from cocomopl.robot import Robot
 
-from conftest import SMALL, SMALL_LENGTH, TURNED
+from conftest import SMALL, SMALL_LENGTH, TURNED, run_cli
 
 FEW = 256  # Sobol candidates: the bundled design's 2048 take 10 s to check
 
@@ -161,3 +162,30 @@ def test_a_pair_of_unrelated_footsteps_is_solved_both_ways_and_passes_the_checks
     assert sum(name.startswith("transition_") for name in motions) == 4  # both ways, and mirrored
     report = check_dataset_file(out)
     assert report.ok, report.failures
+
+
+@pytest.mark.slow  # shares the small dataset
+def test_a_run_reuses_a_datasets_steps_and_solves_none_again(robot, small_dataset, tmp_path):
+    known = reusable_steps(small_dataset, SMALL, robot)
+    assert {spec.swing_side for spec in known} == {"left"}
+    out = tmp_path / "again.h5"
+    record = {"reused_from": [file_identity(small_dataset)]}  # as generate_dataset(reuse=...) records it
+    summary = generate(out, (SMALL_LENGTH,), settings=SMALL, workers=1, known=known, command="pytest", progress=False,
+                       record=record)
+    assert summary["solved"] == 0 and summary["reused"] == len(known) and summary["failed"] == []
+    again, attrs = read_motions(out, dataset=True)
+    assert attrs["reused_from"] == record["reused_from"]
+    before, _ = read_motions(small_dataset, dataset=True)
+    assert sorted(again) == sorted(before)
+    for name, motion in before.items():
+        np.testing.assert_array_equal(again[name].q, motion.q)
+
+
+@pytest.mark.slow  # shares the small dataset
+def test_reusing_a_dataset_of_other_settings_is_refused_in_one_line(small_dataset, tmp_path):
+    out = tmp_path / "d.h5"
+    result = run_cli("dataset", "generate", "--lengths-mm", "200", "--reuse", str(small_dataset), "--out", str(out))
+    assert result.returncode != 0
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"cannot reuse {small_dataset}: it was solved with other OCP settings" in lines[0]
+    assert not out.exists() and not out.with_name(out.name + ".parts").exists()

@@ -228,6 +228,25 @@ def finished_part(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> M
     return None
 
 
+def reusable_steps(path: str | Path, settings: OCPSettings, robot: Robot) -> dict[StepSpec, Motion]:
+    """The solved steps (left swing; the right ones are their mirror images) of the dataset
+    ``path``, for a run that solves with ``settings`` for ``robot`` to take instead of solving
+    them again.
+
+    Raises
+    ------
+    Error
+        If ``path`` is not a dataset of ``robot`` solved with the same OCP settings.
+    """
+    motions, attrs = read_motions(path, dataset=True, robot=robot)
+    if attrs.get("robot") not in (None, robot.name):
+        raise Error(f"cannot reuse {path}: it is for the robot {attrs['robot']!r}, not {robot.name!r}")
+    problem = _settings_problem(attrs.get("settings"), json.loads(json.dumps(settings.as_dict())))
+    if problem:
+        raise Error(f"cannot reuse {path}: {problem}")
+    return {m.steps[0]: m for m in motions.values() if m.steps[0].swing_side == "left"}
+
+
 @contextlib.contextmanager
 def _working_folder(parts: Path, output: Path):
     """Yield ``parts``, the working folder of ``output``, created if needed.
@@ -603,4 +622,5 @@ def continuity_report(robot: Robot, done: dict[StepSpec, Motion]) -> dict:
     return report
 
 
-__all__ = ["JobResult", "generate", "job_executor", "job_result", "length_job", "solve_by_continuation", "transition_job"]
+__all__ = ["JobResult", "generate", "job_executor", "job_result", "length_job", "reusable_steps", "solve_by_continuation",
+           "transition_job"]
