@@ -29,7 +29,7 @@ from cocomopl.motion import Footstep, as_footstep
 from cocomopl.robot import Robot
 
 SAMPLINGS = ("maximin", "random")
-DEFAULT_STEP_SPACE = (40, 80)  # footsteps, pairs: the bundled omnidirectional set
+DEFAULT_STEP_SPACE = (60, 80)  # footsteps, pairs: the bundled omnidirectional set
 DEFAULT_STEP_SPACE_TEXT = "/".join(map(str, DEFAULT_STEP_SPACE))
 _LOW = np.array([FOOTSTEP_RANGE[key][0] for key in ("length", "width", "turn")])
 _HIGH = np.array([FOOTSTEP_RANGE[key][1] for key in ("length", "width", "turn")])
