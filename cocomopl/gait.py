@@ -63,6 +63,10 @@ def footstep_origin(landed: np.ndarray, side: str, footstep: Sequence[float], *,
 # ``check_footstep`` refuses a footstep whose soles come closer than ``FEET_GAP``.
 FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.165), "turn": (-math.radians(25), math.radians(25))}
 FEET_GAP = 0.01  # m between the feet's meshes, both flat on the ground
+# How far past a bound of FOOTSTEP_RANGE a footstep still counts as on it: a footstep file's
+# landings are world poses in rounded numbers, and a footstep at a bound read back from them
+# lands up to a few micrometres (at 0.1 deg of yaw, a third of a millimetre) on either side.
+RANGE_ROUNDING = {"length": 5e-4, "width": 5e-4, "turn": math.radians(0.05)}
 
 # Weights of a footstep's width (m/m) and turn (m/rad) in the metric the weight GPs and the
 # training design measure footsteps in, metres of step length: each maps its range
@@ -75,14 +79,16 @@ FOOTSTEP_METRIC = np.array([1.0, WIDTH_SCALE, TURN_SCALE])  # (length, width, tu
 
 def check_footstep(robot: Robot, side: str, footstep: Sequence[float]) -> None:
     """An :class:`Error` unless sole ``side`` may land at the ``footstep`` (length, width, turn)
-    from the other: within ``FOOTSTEP_RANGE`` and with the feet's meshes ``FEET_GAP`` apart."""
+    from the other: within ``FOOTSTEP_RANGE`` (give or take ``RANGE_ROUNDING``) and with the
+    feet's meshes ``FEET_GAP`` apart."""
     from cocomopl.kinematics import flat_placement, soles_distance
 
     length, width, turn = footstep
     asked = {"length": length, "width": width, "turn": turn}
     for key, value in asked.items():
         low, high = FOOTSTEP_RANGE[key]
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
+        slack = RANGE_ROUNDING[key]
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and low - slack <= value <= high + slack):
             unit, scale = ("deg", math.degrees(1)) if key == "turn" else ("mm", 1000)
             raise Error(f"footstep {key} {value * scale:g} {unit} is outside {low * scale:g}..{high * scale:g} {unit}")
     landed = footstep_pose(np.zeros(3), side, footstep, separation=foot_separation(robot))

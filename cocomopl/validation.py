@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.gait import FOOTSTEP_RANGE, MAX_LENGTH_M
+from cocomopl.gait import FOOTSTEP_RANGE, MAX_LENGTH_M, RANGE_ROUNDING
 from cocomopl.motion import Motion
 
 PHASE_KINDS = ("ds", "ss")
@@ -60,20 +60,22 @@ def check_indices(name: str, value: np.ndarray, n: int, *, increasing: bool = Tr
 
 def check_steps(steps: list) -> None:
     """Every step's lengths are numbers of metres within reach, backward steps as far as
-    ``FOOTSTEP_RANGE`` goes, and its widths and turns within that range."""
+    ``FOOTSTEP_RANGE`` goes, and its widths and turns within that range (give or take
+    ``RANGE_ROUNDING``, as :func:`~cocomopl.gait.check_footstep` takes them)."""
     require(len(steps) >= 1, "the motion has no steps")
     low = FOOTSTEP_RANGE["length"][0]
     for spec in steps:
         for length in (spec.start_length, spec.end_length):
             require(
                 isinstance(length, (int, float)) and not isinstance(length, bool) and math.isfinite(length)
-                and low <= length <= MAX_LENGTH_M,
+                and low - RANGE_ROUNDING["length"] <= length <= MAX_LENGTH_M,
                 f"step {spec.kind} has length {length!r}, not a number of metres in {low:g}..{MAX_LENGTH_M:g}",
             )
         for key in ("width", "turn"):
             lo, hi = FOOTSTEP_RANGE[key]
+            slack = RANGE_ROUNDING[key]
             for value in (getattr(spec, f"start_{key}"), getattr(spec, f"end_{key}")):
-                require(lo <= value <= hi, f"step {spec.name} has a {key} of {value:g}, outside {lo:g}..{hi:g}")
+                require(lo - slack <= value <= hi + slack, f"step {spec.name} has a {key} of {value:g}, outside {lo:g}..{hi:g}")
 
 
 def check_time(t: np.ndarray, impacts: np.ndarray) -> None:

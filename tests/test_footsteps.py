@@ -4,6 +4,7 @@ that turn, side-step and step backward (issue #25, first part)."""
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import replace
 from types import SimpleNamespace
@@ -110,6 +111,19 @@ def test_footsteps_out_of_range_or_colliding_are_refused_in_one_line(robot):
         with pytest.raises(Error, match=message) as info:
             check_footstep(robot, "left", args)
         assert "\n" not in str(info.value)
+
+
+def test_a_footstep_a_rounding_past_a_bound_is_allowed_and_one_further_is_refused(robot):
+    """A footstep file's landings are rounded world poses: a footstep 150 mm back, at the
+    range's bound, is read back a micrometre past it, and still walks."""
+    check_footstep(robot, "right", (-0.150001, 0.053, math.radians(13.2)))
+    check_steps([StepSpec("transition", 0.2, -0.150001)])  # and a motion file of that walk reads back
+    with pytest.raises(Error, match=re.escape("length -151 mm is outside -150..400 mm")):
+        check_footstep(robot, "right", (-0.151, 0.053, math.radians(13.2)))
+    with pytest.raises(Error, match=re.escape("turn 25.1 deg is outside")):
+        check_footstep(robot, "right", (0.2, 0.05, math.radians(25.1)))
+    with pytest.raises(Error, match=re.escape("length -0.151, not a number of metres in -0.15..0.8")):
+        check_steps([StepSpec("transition", 0.2, -0.151)])
 
 
 def test_soles_distance_measures_the_gap_between_the_feet(robot):
