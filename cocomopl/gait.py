@@ -77,6 +77,13 @@ TURN_SCALE = 0.63
 FOOTSTEP_METRIC = np.array([1.0, WIDTH_SCALE, TURN_SCALE])  # (length, width, turn) -> metres
 
 
+def within_range(key: str, value: float) -> bool:
+    """Whether a footstep's ``key`` ("length", "width" or "turn") is within ``FOOTSTEP_RANGE``,
+    give or take ``RANGE_ROUNDING``."""
+    low, high = FOOTSTEP_RANGE[key]
+    return low - RANGE_ROUNDING[key] <= value <= high + RANGE_ROUNDING[key]
+
+
 def check_footstep(robot: Robot, side: str, footstep: Sequence[float]) -> None:
     """An :class:`Error` unless sole ``side`` may land at the ``footstep`` (length, width, turn)
     from the other: within ``FOOTSTEP_RANGE`` (give or take ``RANGE_ROUNDING``) and with the
@@ -86,9 +93,8 @@ def check_footstep(robot: Robot, side: str, footstep: Sequence[float]) -> None:
     length, width, turn = footstep
     asked = {"length": length, "width": width, "turn": turn}
     for key, value in asked.items():
-        low, high = FOOTSTEP_RANGE[key]
-        slack = RANGE_ROUNDING[key]
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and low - slack <= value <= high + slack):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and within_range(key, value)):
+            low, high = FOOTSTEP_RANGE[key]
             unit, scale = ("deg", math.degrees(1)) if key == "turn" else ("mm", 1000)
             raise Error(f"footstep {key} {value * scale:g} {unit} is outside {low * scale:g}..{high * scale:g} {unit}")
     landed = footstep_pose(np.zeros(3), side, footstep, separation=foot_separation(robot))

@@ -92,9 +92,10 @@ def generate_dataset(
     settings = replace(OCPSettings(), **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input
     known = {}
-    for path in reuse:
-        known |= reusable_steps(path, settings, Robot(robot))
     if reuse:
+        description = Robot(robot)  # loaded once for every reused file
+        for path in reuse:
+            known |= reusable_steps(path, settings, description)
         record = {**(record or {}), "reused_from": [file_identity(path) for path in reuse]}
     return DatasetSummary(**generate(out, lengths, extra_transitions, robot_name=robot, settings=settings,
                                      workers=workers, scheduler=scheduler, command=command or "Python API",

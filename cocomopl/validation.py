@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.gait import FOOTSTEP_RANGE, MAX_LENGTH_M, RANGE_ROUNDING
+from cocomopl.gait import FOOTSTEP_RANGE, MAX_LENGTH_M, RANGE_ROUNDING, within_range
 from cocomopl.motion import Motion
 
 PHASE_KINDS = ("ds", "ss")
@@ -73,9 +73,8 @@ def check_steps(steps: list) -> None:
             )
         for key in ("width", "turn"):
             lo, hi = FOOTSTEP_RANGE[key]
-            slack = RANGE_ROUNDING[key]
             for value in (getattr(spec, f"start_{key}"), getattr(spec, f"end_{key}")):
-                require(lo - slack <= value <= hi + slack, f"step {spec.name} has a {key} of {value:g}, outside {lo:g}..{hi:g}")
+                require(within_range(key, value), f"step {spec.name} has a {key} of {value:g}, outside {lo:g}..{hi:g}")
 
 
 def check_time(t: np.ndarray, impacts: np.ndarray) -> None:
