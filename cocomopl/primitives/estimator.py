@@ -221,7 +221,7 @@ class TypeArrays:
         inverse squared widths and nuggets ``alpha eta``
     floor : (K,) variance added to a new step's weights, ``(VARIANCE_FLOOR + eta) alpha``: its nugget and a floor
     conditioned : (I,) 1 for the signals conditioned on a step's start, 0 for the ZMP
-    basis, unique_gamma, beta, mean_blocks, spectral_blocks, block_index : :func:`_weight_solves`
+    basis, unique_gamma, beta, chunk_group, mean_blocks, spectral_blocks, block_index : :func:`_weight_solves`
     boundaries : (P+1,) the type's phase boundaries on the normalised grid
     support_radius : the largest distance from a training step to its nearest neighbour, m
     dur_mean, dur_alpha, dur_gamma, dur_beta, dur_K_inv : the P log phase durations' GPs,
@@ -238,6 +238,7 @@ class TypeArrays:
     basis: np.ndarray
     unique_gamma: np.ndarray
     beta: np.ndarray
+    chunk_group: np.ndarray
     mean_blocks: np.ndarray
     spectral_blocks: np.ndarray
     block_index: np.ndarray
@@ -612,26 +613,36 @@ def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, *,
     weights' observation precision.  So ``C_k = U diag(1 / (lambda + nu_k)) U^T / alpha_k``
     in the eigenbasis ``E(gamma_k) = U diag(lambda) U^T``, with ``nu_k = eta_k + 1 / (alpha_k
     c_k)``: a quadratic form costs O(n), not O(n^2).  The K weights share a few distinct
-    ``gamma`` (13 for 396 weights in the bundled omnidirectional model): one eigenbasis each.
+    ``gamma``: one eigenbasis each.
 
-    Returns the :class:`TypeArrays` fields ``basis`` (G, n, n), ``unique_gamma`` (G,) and ``beta`` (K, n), and
-    the weights grouped by their ``gamma`` for batched products: ``mean_blocks`` ``alpha_k
-    beta_k`` and ``spectral_blocks`` ``1 / (lambda_j + nu_k)``, (G, n, M) each for groups of
-    at most M weights (zero-padded), and ``block_index`` (K,), each weight's column in the
-    flattened (G M) result.
+    The weights of one ``gamma`` are cut into chunks of at most ``ceil(K / G)`` for batched
+    products (G distinct ``gamma``): the groups differ in size (124 of the bundled
+    omnidirectional model's 396 weights share one width, one has a width of its own), and
+    padding every group to the largest would multiply the products' cost by nearly four,
+    while chunks at most double it.
+
+    Returns the :class:`TypeArrays` fields ``basis`` (G, n, n), ``unique_gamma`` (G,) and
+    ``beta`` (K, n), and the chunks: ``chunk_group`` (C,) the ``gamma`` of each chunk,
+    ``mean_blocks`` ``alpha_k beta_k`` and ``spectral_blocks`` ``1 / (lambda_j + nu_k)``,
+    (C, n, M) each (zero-padded), and ``block_index`` (K,), each weight's column in the
+    flattened (C M) result.
     """
     D = ((lengths[:, None] - lengths[None]) ** 2).sum(axis=-1)
     unique_gamma, gamma_of = np.unique(gamma, return_inverse=True)
     eigenvalues, basis = np.linalg.eigh(np.exp(-unique_gamma[:, None, None] * D))
-    G, n, M = len(unique_gamma), len(lengths), np.bincount(gamma_of).max()
-    rank = np.empty(len(alpha), dtype=int)  # a weight's place in its group
+    G, n = len(unique_gamma), len(lengths)
+    M = -(-len(alpha) // G)
+    chunk_of, place, chunk_group = np.empty(len(alpha), dtype=int), np.empty(len(alpha), dtype=int), []
     for g in range(G):
-        rank[gamma_of == g] = np.arange(np.count_nonzero(gamma_of == g))
-    mean_blocks, spectral_blocks = np.zeros((G, n, M)), np.zeros((G, n, M))
-    mean_blocks[gamma_of, :, rank] = alpha[:, None] * beta
-    spectral_blocks[gamma_of, :, rank] = 1.0 / (eigenvalues[gamma_of] + nu[:, None])
-    return {"basis": basis, "unique_gamma": unique_gamma, "beta": beta, "mean_blocks": mean_blocks,
-            "spectral_blocks": spectral_blocks, "block_index": gamma_of * M + rank}
+        members = np.flatnonzero(gamma_of == g)
+        chunk_of[members] = len(chunk_group) + np.arange(len(members)) // M
+        place[members] = np.arange(len(members)) % M
+        chunk_group += [g] * -(-len(members) // M)
+    mean_blocks, spectral_blocks = np.zeros((len(chunk_group), n, M)), np.zeros((len(chunk_group), n, M))
+    mean_blocks[chunk_of, :, place] = alpha[:, None] * beta
+    spectral_blocks[chunk_of, :, place] = 1.0 / (eigenvalues[gamma_of] + nu[:, None])
+    return {"basis": basis, "unique_gamma": unique_gamma, "beta": beta, "chunk_group": np.array(chunk_group),
+            "mean_blocks": mean_blocks, "spectral_blocks": spectral_blocks, "block_index": chunk_of * M + place}
 
 
 def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -650,8 +661,8 @@ def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndar
     p = smooth @ c.basis
 
     def per_weight(x: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-        """(G, rows, n) vectors, each group's multiplied by its weights' block: (rows, K)."""
-        return (x @ blocks).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, c.block_index]
+        """(G, rows, n) vectors, each chunk's group's multiplied by the chunk's block: (rows, K)."""
+        return (x[c.chunk_group] @ blocks).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, c.block_index]
 
     mean = c.chi + per_weight(smooth, c.mean_blocks)
     same = (d2 < SAME_LENGTHS_M2).astype(float)
