@@ -42,8 +42,7 @@ def generation_s(model, specs) -> tuple[float, list]:
     return float(np.median(runs)), steps
 
 
-def measure(robot: Robot, path, specs_of) -> dict:
-    model = load_model(path).prepare()
+def measure(robot: Robot, model, specs_of) -> dict:
     specs = specs_of(model)
     generated, steps = generation_s(model, specs)
     started = time.perf_counter()
@@ -53,8 +52,7 @@ def measure(robot: Robot, path, specs_of) -> dict:
             "placement_s_per_step": placed / len(specs)}
 
 
-def random_footstep_walks(robot: Robot, path, walks: int, seed: int) -> dict:
-    model = load_model(path).prepare()
+def random_footstep_walks(robot: Robot, model, walks: int, seed: int) -> dict:
     per_step = []
     for walk in range(walks):
         footsteps = [Footstep(*map(float, f)) for f in allowed_footsteps(robot, 12, seed=seed + walk)]
@@ -74,12 +72,13 @@ def main() -> int:
         parser.error(f"--walks must be at least 1, got {args.walks}")
     warnings.simplefilter("ignore")
     robot = Robot("talos")
+    omni = load_model(BUNDLED_OMNI_MODEL).prepare()
     report = {
-        "straight_m_gen": measure(robot, BUNDLED_MODEL, lambda m: sequence_specs(list(M_GEN))),
-        "omni_goal_1_0.5_90": measure(robot, BUNDLED_OMNI_MODEL,
+        "straight_m_gen": measure(robot, load_model(BUNDLED_MODEL).prepare(), lambda m: sequence_specs(list(M_GEN))),
+        "omni_goal_1_0.5_90": measure(robot, omni,
                                       lambda m: plan_to_goal(robot, (1.0, 0.5, math.radians(90)),
                                                              limits=m.footstep_range())),
-        "omni_random_footsteps": random_footstep_walks(robot, BUNDLED_OMNI_MODEL, args.walks, args.seed),
+        "omni_random_footsteps": random_footstep_walks(robot, omni, args.walks, args.seed),
     }
     if args.json:
         print(json.dumps(report))
