@@ -84,8 +84,8 @@ def cmd_train(args):
 
     replacing(args, args.out, Path(args.out).with_suffix(".png"), inputs=[args.data], given=args.out)
     return train_model(args.out, args.data, n_primitives=args.primitives, kernels=args.kernels,
-                       max_iterations=args.max_iterations, workers=args.workers or os.cpu_count() or 1,
-                       command=args.command_line, progress=True)
+                       max_iterations=args.max_iterations, n_widths=args.widths,
+                       workers=args.workers or os.cpu_count() or 1, command=args.command_line, progress=True)
 
 
 def cmd_model_info(args):
@@ -268,7 +268,7 @@ def _dataset_parsers(sub) -> None:
 def _primitives_parsers(sub) -> None:
     from cocomopl import options as o
     from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS
-    from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES
+    from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES, DEFAULT_WIDTHS
 
     train = sub.add_parser("train", help="learn movement primitives from a dataset, choosing S and the kernel "
                            "(needs the [train] extra)")
@@ -281,6 +281,9 @@ def _primitives_parsers(sub) -> None:
                        help=f"candidate time kernels (default: {','.join(DEFAULT_KERNELS)})")
     train.add_argument("--max-iterations", type=o.positive_int, default=DEFAULT_MAX_ITERATIONS, metavar="N",
                        help="the most EM rounds per candidate, a count (default: %(default)s)")
+    train.add_argument("--widths", type=o.positive_int, default=DEFAULT_WIDTHS, metavar="N",
+                       help="candidate widths of the weight kernels, log-spaced from 7 mm to 0.7 m; fewer make "
+                            "generation faster (default: %(default)s)")
     train.add_argument("--workers", type=o.workers, metavar="N",
                        help="local worker processes, at most 4 per core (default: one per core)")
     train.set_defaults(func=cmd_train)

@@ -367,6 +367,7 @@ def train_model(
     n_primitives: tuple[int, ...] | None = None,
     kernels: tuple[str, ...] | None = None,
     max_iterations: int | None = None,
+    n_widths: int | None = None,
     workers: int = 1,
     command: str | None = None,
     progress: bool = False,
@@ -393,6 +394,7 @@ def train_model(
         n_primitives=n_primitives or primitives.DEFAULT_PRIMITIVES,
         kernels=kernels or primitives.DEFAULT_KERNELS,
         max_iterations=max_iterations or primitives.DEFAULT_MAX_ITERATIONS,
+        n_widths=n_widths or primitives.DEFAULT_WIDTHS,
         workers=workers,
         progress=progress,
     )
@@ -431,7 +433,8 @@ def model_info(path: str | Path | None = None, verbose: bool = False, *,
     meta = model.metadata_
     keys = ("n_primitives", "kernel", "max_iterations", "bound", "explained_variance", "n_grid", "created", "command",
             "versions", "training_wall_time_s", "checksum", "format_version")
-    return ModelInfo(file=path.name, **{k: meta.get(k) for k in keys}, dataset=_dataset_identity(meta.get("dataset") or {}),
+    return ModelInfo(file=path.name, **{k: meta.get(k) for k in keys}, n_widths=model.n_widths,
+                     dataset=_dataset_identity(meta.get("dataset") or {}),
                      coverage=coverage(model, samples=DEFAULT_SAMPLES if coverage_samples is None else coverage_samples),
                      selection=meta.get("selection") if verbose else None)
 

@@ -318,6 +318,7 @@ class ModelInfo(Result):
     n_primitives: int | None
     kernel: str | None
     max_iterations: int | None
+    n_widths: int | None
     bound: float | None
     explained_variance: dict | None
     n_grid: int | None
@@ -335,7 +336,8 @@ class ModelInfo(Result):
         ev, dataset = self.explained_variance or {}, self.dataset
         checksum = f", sha256 {dataset['sha256'][:12]}" if dataset.get("sha256") else ""
         lines = [
-            f"{self.file}: {self.n_primitives} primitives, {self.kernel} kernel, free energy {self.bound:.1f}",
+            f"{self.file}: {self.n_primitives} primitives, {self.kernel} kernel, {self.n_widths} candidate weight-kernel "
+            f"widths, free energy {self.bound:.1f}",
             "explained variance: " + ", ".join(f"{g} {100 * v:.3f}%" for g, v in ev.items()),
             f"trained {self.created} by: {self.command}",
             f"on {dataset.get('name', '?')}{checksum} ({dataset.get('steps', '?')} steps)",

@@ -237,6 +237,33 @@ def test_predicting_steps_together_equals_predicting_each_and_a_repeated_step_on
     assert len(repeated) >= 2 and all(together[k] is together[-2] for k in repeated)
 
 
+def test_mirror_types_share_their_weight_solves_and_their_weights_variance(model):
+    """A type and its mirror image are trained on the same step parameters, and the weight
+    kernels' hyperparameters are the model's: one eigenbasis serves both, and a left and a
+    right step of the same lengths have the same weight variance (their means differ)."""
+    for kind in ("cyclic", "start", "transition", "stop_left_part1"):
+        left = model.type_arrays(f"{kind}_left" if "part" not in kind else kind)
+        right = model.type_arrays(f"{kind}_right" if "part" not in kind else kind.replace("left", "right"))
+        assert left.solves is right.solves
+    spec = StepSpec("transition", 0.22, 0.31)
+    mirrored = StepSpec("transition", 0.22, 0.31, "right")
+    steps = model.predict_many([spec, mirrored])
+    np.testing.assert_allclose(steps[0]._parts[0].weight_var, steps[1]._parts[0].weight_var, rtol=1e-12)
+    assert np.abs(steps[0]._parts[0].weights - steps[1]._parts[0].weights).max() > 1e-3
+
+
+def test_a_model_of_fewer_candidate_widths_picks_its_widths_among_them(steps, tmp_path):
+    from cocomopl.primitives.em import weight_widths
+    from cocomopl.primitives.model_file import load_model, save_model
+
+    coarse = MovementPrimitives(n_primitives=2, kernel="rbf", n_grid=20, max_iterations=3, n_widths=3).fit(steps)
+    picked = np.unique(coarse.gamma_w_)
+    assert len(picked) <= 3
+    np.testing.assert_allclose(picked, weight_widths(3)[np.searchsorted(weight_widths(3), picked * (1 - 1e-9))])
+    save_model(tmp_path / "coarse.npz", coarse, {"robot": "talos", "command": "pytest"})
+    assert load_model(tmp_path / "coarse.npz").n_widths == 3
+
+
 def test_pca_weights_give_each_signal_group_the_same_total_variance(steps):
     from cocomopl.primitives.estimator import pca_signal_weights, signal_groups
 
@@ -356,9 +383,9 @@ def test_unknown_step_type_is_an_error(steps):
 
 
 def test_parameters_round_trip_and_a_typo_is_refused():
-    model = MovementPrimitives(n_primitives=7, kernel="matern32", n_grid=50, max_iterations=20, verbose=True)
+    model = MovementPrimitives(n_primitives=7, kernel="matern32", n_grid=50, max_iterations=20, n_widths=9, verbose=True)
     assert model.get_params() == {"n_primitives": 7, "kernel": "matern32", "n_grid": 50, "max_iterations": 20,
-                                  "verbose": True}
+                                  "n_widths": 9, "verbose": True}
     assert MovementPrimitives(**model.get_params()).get_params() == model.get_params()
     assert model.set_params(n_primitives=9, kernel="rbf") is model
     assert (model.n_primitives, model.kernel) == (9, "rbf")
@@ -462,6 +489,7 @@ def test_model_info_cli(model_file, tmp_path):
 def test_train_cli_bad_options(tmp_path):
     assert run_cli("train", "--primitives", "0", "--out", str(tmp_path / "m.npz")).returncode == 2
     assert run_cli("train", "--kernels", "cubic", "--out", str(tmp_path / "m.npz")).returncode == 2
+    assert_one_line_error(run_cli("train", "--widths", "0", "--out", str(tmp_path / "m.npz")), "--widths")
     too_many = run_cli("train", "--primitives", "200", "--kernels", "rbf", "--out", str(tmp_path / "m.npz"))
     assert_one_line_error(too_many, "200 primitives cannot exceed")
     assert_one_line_error(run_cli("train", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "m.npz")), "not found")

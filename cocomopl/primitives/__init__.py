@@ -11,3 +11,8 @@ DEFAULT_KERNELS = TIME_KERNELS
 # with it (``cocomopl train``'s default), so the defaults reproduce them.  A fit stops earlier
 # at em.RELATIVE_TOLERANCE (14-19 rounds on the bundled sets); see docs/results.md#the-learner.
 DEFAULT_MAX_ITERATIONS = 40
+# Candidate widths of the weight kernels, log-spaced from 7 mm to 0.7 m (36 % apart); EM picks
+# each kernel's width among them.  The bundled models were trained with it.  Generating a step
+# costs one product with an n x n eigenbasis per distinct width picked, so fewer candidates
+# (``cocomopl train --widths 9``) generate faster; see docs/experiments/generation-speed.md.
+DEFAULT_WIDTHS = 31

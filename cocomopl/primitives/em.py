@@ -29,10 +29,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cocomopl.primitives import DEFAULT_WIDTHS
 from cocomopl.primitives.bound import JITTER, BoundData, free_energy, mp_prior
 from cocomopl.primitives.kernels import time_kernel
 from cocomopl.primitives.optimise import (
     ETA_GRID,
+    GAMMA_GRID,
     LOG_BOUNDS,
     _prediction_arrays,
     initial_parameters,
@@ -42,7 +44,6 @@ from cocomopl.primitives.shared_kernels import ShapeCache, WeightKernels, distin
 RELATIVE_TOLERANCE = 1e-5  # a round that raises the bound by less than this fraction of it ends the fit
 HYPERPARAMETERS = ("log_alpha_t", "log_ell_t", "log_alpha_w", "log_gamma_w", "log_eta_w")
 GRID_POINTS = 61  # log-spaced candidate widths per time kernel in an M-step, 12 % apart
-WEIGHT_GRID_POINTS = 31  # and per weight kernel, 36 % apart, each with every nugget of ETA_GRID
 
 
 def _shifted_solve(K: np.ndarray, scale: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -183,12 +184,26 @@ def _current_weight_kernels(data: BoundData, gamma: np.ndarray, eta: np.ndarray)
     return inverse[shape_of], log_det[shape_of]
 
 
-def kernel_grids(data: BoundData, kernel: str) -> dict:
+def weight_widths(points: int) -> np.ndarray:
+    """``points`` candidate widths of the weight kernels (inverse squared, 1/m^2), log-spaced
+    over their bounds (7 mm .. 0.7 m): 31 are 36 % apart, 9 a half-decade."""
+    return np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), points)
+
+
+def start_widths(points: int) -> tuple | np.ndarray:
+    """The widths the PCA start picks from (:func:`~cocomopl.primitives.optimise.initial_parameters`):
+    the half-decade ``GAMMA_GRID``, or EM's own candidates when they are no more.  An M-step
+    keeps a kernel's width if no candidate beats it, so a start width off a coarse grid would
+    stay beside the grid's and add to the distinct widths that prediction pays for."""
+    return weight_widths(points) if points <= len(GAMMA_GRID) else GAMMA_GRID
+
+
+def kernel_grids(data: BoundData, kernel: str, widths: np.ndarray) -> dict:
     """The M-step's candidate kernels, the same in every round: the log-spaced widths (and
-    nuggets) of the time and weight kernels with their inverses (flattened; the weight
-    kernels' on the steps, :func:`_on_steps`) and log-determinants."""
+    nuggets) of the time kernels, the weight kernels' ``widths`` with every nugget, with their
+    inverses (flattened; the weight kernels' on the steps, :func:`_on_steps`) and log-determinants."""
     ells = np.geomspace(float(data.r[0, 1]), 10.0, GRID_POINTS)
-    gammas, etas = (g.ravel() for g in np.meshgrid(np.geomspace(*np.exp(LOG_BOUNDS["log_gamma_w"]), WEIGHT_GRID_POINTS), ETA_GRID))
+    gammas, etas = (g.ravel() for g in np.meshgrid(widths, ETA_GRID))
     return {"time": ((ells,), *_time_kernels(kernel, data.r, ells)),
             "weight": ((gammas, etas), *_weight_kernels(data, gammas, etas))}
 
@@ -196,9 +211,9 @@ def kernel_grids(data: BoundData, kernel: str) -> dict:
 def m_step(q: dict, hyper: dict, data: BoundData, *, kernel: str, grids: dict | None = None) -> dict:
     """The kernel hyperparameters at their best, the posteriors held: per kernel the width
     (and for the weight kernels the nugget) from a log-spaced grid (:func:`kernel_grids`,
-    computed here unless given) or its current value (so the bound cannot fall), and the
-    amplitude in closed form (:func:`_best_kernels`)."""
-    grids = kernel_grids(data, kernel) if grids is None else grids
+    computed here with the default widths unless given) or its current value (so the bound
+    cannot fall), and the amplitude in closed form (:func:`_best_kernels`)."""
+    grids = kernel_grids(data, kernel, weight_widths(DEFAULT_WIDTHS)) if grids is None else grids
     # time kernels, per primitive
     ell_now = np.exp(hyper["log_ell_t"])
     deviation = q["m"] - data.mu
@@ -240,6 +255,7 @@ def maximise_bound_em(
     kernel: str,
     max_rounds: int,
     signal_weights: np.ndarray,
+    widths: int = DEFAULT_WIDTHS,
     on_iteration: Callable[[float], None] | None = None,
 ) -> dict:
     """Fit Q and the kernel hyperparameters by variational EM from the PCA start of
@@ -247,14 +263,16 @@ def maximise_bound_em(
     :func:`~cocomopl.primitives.optimise.maximise_bound` returns, with ``bounds``: the bound
     after each round's E-step and closed-form updates (non-decreasing).
 
+    The weight kernels' widths are picked from ``widths`` candidates (:func:`weight_widths`).
     ``on_iteration``, if given, is called after every round with the bound reached.
     """
-    params, data = initial_parameters(X_slots, mask, d2, tau=tau, S=S, signal_weights=signal_weights)
+    params, data = initial_parameters(X_slots, mask, d2, tau=tau, S=S, signal_weights=signal_weights,
+                                      widths=start_widths(widths))
     hyper = {k: np.asarray(params[k], dtype=float) for k in HYPERPARAMETERS}
     cache = ShapeCache(data)
     q = {**posterior_start(params, *priors(hyper, data, kernel, cache=cache), data=data), "chi": params["chi"],
          "sigma2": np.exp(2.0 * params["log_sigma"])}
-    grids = kernel_grids(data, kernel)
+    grids = kernel_grids(data, kernel, weight_widths(widths))
     bounds = []
     for _ in range(max(max_rounds, 1)):
         if bounds:

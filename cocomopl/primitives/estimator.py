@@ -23,7 +23,7 @@ from tqdm import tqdm
 from cocomopl.errors import Error, require_extra
 from cocomopl.gait import TURN_SCALE, WIDTH_SCALE
 from cocomopl.motion import StepSpec
-from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, TIME_KERNELS
+from cocomopl.primitives import DEFAULT_MAX_ITERATIONS, DEFAULT_WIDTHS, TIME_KERNELS
 from cocomopl.primitives import durations as duration_gp
 from cocomopl.primitives.checks import Check, one_of, whole
 from cocomopl.primitives.training import (
@@ -51,6 +51,7 @@ PARAMETER_CHECKS: dict[str, Check] = {
     "kernel": one_of(TIME_KERNELS),
     "n_grid": whole(2),
     "max_iterations": whole(1),
+    "n_widths": whole(1),
 }
 
 
@@ -89,9 +90,10 @@ def pca_signal_weights(X: np.ndarray, names: list[str]) -> np.ndarray:
 @dataclass(frozen=True)
 class _Part:
     """One learned trajectory of a predicted step (a step, or a part of one), unconditioned:
-    the signals' mean (T, I), the weights' posterior mean and variance (I, S), and what
+    the signals' mean (T, I), the weights' posterior mean and variance (I, S), what
     conditioning on the part's start takes (:func:`_condition`): ``gain``, ``cross`` (T, I)
-    and ``observed`` (I,)."""
+    and ``observed`` (I,), and what its phase durations' standard deviations take: its
+    type's arrays and its squared distances ``d2`` (n,) to their training steps."""
 
     mean: np.ndarray
     weights: np.ndarray
@@ -99,6 +101,8 @@ class _Part:
     gain: np.ndarray
     cross: np.ndarray
     observed: np.ndarray
+    arrays: TypeArrays
+    d2: np.ndarray
 
 
 class PredictedStep:
@@ -111,22 +115,21 @@ class PredictedStep:
         learned in parts (a stop) repeats the time of the touchdown between them, pre- and
         post-impact, as a :class:`~cocomopl.motion.Motion` does
     values, std : (T, I) posterior mean and standard deviation of the signals
-    durations, duration_std : (P,) phase durations and their standard deviation, s
+    durations, duration_std : (P,) phase durations and their standard deviation, s (the
+        standard deviations and ``std`` are computed when read: generating a walk needs neither)
     distance : distance of the step parameters (:func:`~cocomopl.primitives.training.step_lengths`)
         to the nearest training step of the type, m
     in_support : whether that distance is within the training grid's spacing
     start : (I,) the signals the step's start was conditioned on (None: not conditioned)
     """
 
-    def __init__(self, spec, tau, parts, *, primitives, boundaries, durations, duration_std, distance, in_support,
-                 start=None):
+    def __init__(self, spec, tau, parts, *, primitives, boundaries, durations, distance, in_support, start=None):
         self.spec = spec
         self.tau = tau
         self._parts = parts
         self._primitives = primitives  # the primitives' means and variances, (S, T) each
         self.boundaries = boundaries
         self.durations = durations
-        self.duration_std = duration_std
         self.distance = distance
         self.in_support = in_support
         self.start = start
@@ -152,14 +155,19 @@ class PredictedStep:
         step's end: the initial joint angles and pelvis orientation then (nearly) equal them.
         The ZMP is not conditioned: it jumps at touchdown, in the OC data too."""
         return PredictedStep(self.spec, self.tau, self._parts, primitives=self._primitives, boundaries=self.boundaries,
-                             durations=self.durations, duration_std=self.duration_std, distance=self.distance,
-                             in_support=self.in_support, start=np.asarray(start, dtype=float))
+                             durations=self.durations, distance=self.distance, in_support=self.in_support,
+                             start=np.asarray(start, dtype=float))
 
     @property
     def std(self) -> np.ndarray:
         """Posterior standard deviation of the signals, (T, I); computed on demand."""
         return np.concatenate([_signal_std(part, *self._primitives, conditioned=k > 0 or self.start is not None)
                                for k, part in enumerate(self._parts)])
+
+    @property
+    def duration_std(self) -> np.ndarray:
+        """Standard deviation (P,) of the phase durations, s; computed on demand."""
+        return np.concatenate([_duration_std(part) for part in self._parts])
 
     @property
     def phase_edges(self) -> np.ndarray:
@@ -189,7 +197,6 @@ class PredictedStep:
             primitives=parts[0]._primitives,
             boundaries=boundaries,
             durations=np.concatenate([p.durations for p in parts]),
-            duration_std=np.concatenate([p.duration_std for p in parts]),
             distance=max(p.distance for p in parts),
             in_support=all(p.in_support for p in parts),
         )
@@ -208,6 +215,61 @@ def _signal_std(part: _Part, primitives: np.ndarray, primitive_var: np.ndarray, 
     return np.sqrt(np.maximum(variance, 0.0))
 
 
+def _duration_std(part: _Part) -> np.ndarray:
+    """Standard deviation (P,) of a part's phase durations: its log durations' GP variance
+    ``alpha - k^T K^-1 k``, carried through the exponential to first order."""
+    c = part.arrays
+    k = c.dur_alpha * np.exp(-c.dur_gamma * part.d2)  # (P, n)
+    durations = np.exp(c.dur_mean + (k * c.dur_beta).sum(axis=-1))
+    log_var = c.dur_alpha[:, 0] - np.einsum("pn,pnm,pm->p", k, c.dur_K_inv, k)
+    return durations * np.sqrt(np.maximum(log_var, 0.0))
+
+
+@dataclass(frozen=True, eq=False)
+class WeightSolves:
+    """The weight GPs' solves on one set of training inputs (:func:`_weight_solves`), in an
+    eigenbasis per distinct kernel width.
+
+    The weight kernels' hyperparameters are the model's, the same for every learned type, so
+    the types trained on the same step parameters (a type and its mirror image) share these
+    and the weights' posterior variance: :meth:`MovementPrimitives.predict_many` computes it
+    once for the steps of all of them.
+
+    Attributes
+    ----------
+    lengths : (n, Z) the training steps' parameters
+    unique_gamma : (G,) the distinct inverse squared widths; ``basis`` (G, n, n) the
+        eigenvectors of ``E(gamma) = exp(-gamma D)`` for each
+    chunk_group, chunk_size, block_index : the weights' layout for batched products: weight
+        k is column ``block_index[k] % chunk_size`` of chunk ``block_index[k] // chunk_size``,
+        and chunk c holds weights of width ``unique_gamma[chunk_group[c]]`` only
+    spectral_blocks : (C, n, M) ``1 / (lambda_j + nu_k)`` in that layout
+    """
+
+    lengths: np.ndarray
+    unique_gamma: np.ndarray
+    basis: np.ndarray
+    chunk_group: np.ndarray
+    chunk_size: int
+    block_index: np.ndarray
+    spectral_blocks: np.ndarray
+
+    def in_chunks(self, columns: np.ndarray) -> np.ndarray:
+        """Per-weight columns (K, n) laid out in chunks (C, n, M), zero-padded."""
+        return _in_chunks(columns, self.block_index, len(self.chunk_group), self.chunk_size)
+
+    def per_weight(self, x: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+        """(G, rows, n) vectors, one per width, each chunk's width's multiplied by the chunk's
+        block (C, n, M): (rows, K)."""
+        return (x[self.chunk_group] @ blocks).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, self.block_index]
+
+
+def _in_chunks(columns: np.ndarray, block_index: np.ndarray, chunks: int, size: int) -> np.ndarray:
+    out = np.zeros((chunks, columns.shape[1], size))
+    out[block_index // size, :, block_index % size] = columns
+    return out
+
+
 @dataclass(frozen=True)
 class TypeArrays:
     """What predicting steps of one learned trajectory type takes: contiguous slices of the
@@ -219,9 +281,10 @@ class TypeArrays:
     lengths : (n, Z) step parameters of the type's n training steps
     chi, alpha_w, gamma_w, nugget : (K,) the K = I*S weight GPs' type means, amplitudes,
         inverse squared widths and nuggets ``alpha eta``
-    floor : (K,) variance added to a new step's weights, ``(VARIANCE_FLOOR + eta) alpha``: its nugget and a floor
-    conditioned : (I,) 1 for the signals conditioned on a step's start, 0 for the ZMP
-    basis, unique_gamma, beta, chunk_group, mean_blocks, spectral_blocks, block_index : :func:`_weight_solves`
+    solves : the weight GPs' solves on the type's training inputs (:class:`WeightSolves`),
+        shared with the types trained on the same ones
+    beta : (K, n) the weight GPs' prior covariances solved against their posterior means, less chi
+    mean_blocks : (C, n, M) ``alpha_k beta_k`` in the chunks of ``solves``
     boundaries : (P+1,) the type's phase boundaries on the normalised grid
     support_radius : the largest distance from a training step to its nearest neighbour, m
     dur_mean, dur_alpha, dur_gamma, dur_beta, dur_K_inv : the P log phase durations' GPs,
@@ -233,15 +296,9 @@ class TypeArrays:
     alpha_w: np.ndarray
     gamma_w: np.ndarray
     nugget: np.ndarray
-    floor: np.ndarray
-    conditioned: np.ndarray
-    basis: np.ndarray
-    unique_gamma: np.ndarray
+    solves: WeightSolves
     beta: np.ndarray
-    chunk_group: np.ndarray
     mean_blocks: np.ndarray
-    spectral_blocks: np.ndarray
-    block_index: np.ndarray
     boundaries: np.ndarray
     support_radius: float
     dur_mean: np.ndarray
@@ -265,6 +322,12 @@ class MovementPrimitives:
     max_iterations : int
         The most EM rounds; the fit stops earlier once a round raises the bound by less than
         ``em.RELATIVE_TOLERANCE`` of its value.
+    n_widths : int
+        Candidate widths of the weight kernels, log-spaced from 7 mm to 0.7 m of the step
+        parameters (:func:`~cocomopl.primitives.em.weight_widths`); EM picks each kernel's
+        width among them.  Predicting a step costs one product with an n x n eigenbasis per
+        distinct width picked (n training steps of its type), so a model of many training
+        steps predicts faster from fewer.
     verbose : bool
         Show the progress of :meth:`fit` on stderr: its iterations and the bound.
 
@@ -307,12 +370,14 @@ class MovementPrimitives:
         kernel: str = "rbf",
         n_grid: int = 100,
         max_iterations: int = DEFAULT_MAX_ITERATIONS,
+        n_widths: int = DEFAULT_WIDTHS,
         verbose: bool = False,
     ):
         self.n_primitives = n_primitives
         self.kernel = kernel
         self.n_grid = n_grid
         self.max_iterations = max_iterations
+        self.n_widths = n_widths
         self.verbose = verbose
 
     # ------------------------------------------------------------------ parameters
@@ -381,6 +446,7 @@ class MovementPrimitives:
             result = em.maximise_bound_em(
                 layout.to_slots(X), layout.mask, layout.d2, tau=tau, S=self.n_primitives, kernel=self.kernel,
                 max_rounds=self.max_iterations, signal_weights=pca_signal_weights(X, steps.signal_names),
+                widths=self.n_widths,
                 on_iteration=functools.partial(_show_iteration, bar) if self.verbose else None,
             )
         fitted = {
@@ -402,7 +468,13 @@ class MovementPrimitives:
         self.fit_time_s_ = time.perf_counter() - started
         # of the learned trajectories (every step, the stops in their two parts) as the model
         # predicts them from their specs: the weight GPs' nuggets smooth across the steps
-        X_hat = np.stack([self._predict_type(t, [spec])[0].values.T for t, spec in zip(types, parts.specs)])
+        of_type: dict[str, list[int]] = {}
+        for k, type_ in enumerate(types):
+            of_type.setdefault(type_, []).append(k)
+        predicted = self._predict_types({t: [parts.specs[k] for k in ks] for t, ks in of_type.items()})
+        X_hat = np.empty_like(X)
+        for type_, ks in of_type.items():
+            X_hat[ks] = [step.values.T for step in predicted[type_]]
         self.explained_variance_ = explained_variance(X, X_hat, steps.signal_names)
         return self
 
@@ -481,6 +553,17 @@ class MovementPrimitives:
         """:meth:`type_arrays` of the types used so far, each built at its first use."""
         return {}
 
+    @functools.cached_property
+    def _solves_of_inputs(self) -> dict[bytes, WeightSolves]:
+        """The weight GPs' solves built so far, by training inputs (``lengths`` as bytes)."""
+        return {}
+
+    @functools.cached_property
+    def _weight_floor(self) -> np.ndarray:
+        """(K,) variance added to a new step's weights, ``(VARIANCE_FLOOR + eta) alpha``: a
+        new step's weights vary about the smooth function by the nugget too."""
+        return ((VARIANCE_FLOOR + self.eta_w_) * self.alpha_w_).ravel()
+
     def type_arrays(self, type_: str) -> TypeArrays:
         """What predicting steps of the learned trajectory type ``type_`` takes (built once).
 
@@ -495,19 +578,23 @@ class MovementPrimitives:
             g = self._type_index[type_]
             n = int(self.mask_[g].sum())
             P = int(self.n_phases_[g])
-            alpha, eta = self.alpha_w_.ravel(), self.eta_w_.ravel()
+            lengths = np.ascontiguousarray(self.lengths_[g, :n])
+            alpha, gamma = self.alpha_w_.ravel(), self.gamma_w_.ravel()
+            key = lengths.tobytes()
+            if key not in self._solves_of_inputs:
+                self._solves_of_inputs[key] = _weight_solves(
+                    lengths, gamma, nu=(self.eta_w_ + 1.0 / (self.alpha_w_ * self.c_w_)).ravel())
+            solves = self._solves_of_inputs[key]
+            beta = self.beta_[:, :, g, :n].reshape(-1, n)
             self._type_arrays[type_] = TypeArrays(
-                lengths=np.ascontiguousarray(self.lengths_[g, :n]),
+                lengths=lengths,
                 chi=self.chi_[:, :, g].ravel(),
                 alpha_w=alpha,
-                gamma_w=self.gamma_w_.ravel(),
-                nugget=alpha * eta,
-                # a new step's weights vary about the smooth function by the nugget too
-                floor=(VARIANCE_FLOOR + eta) * alpha,
-                conditioned=(~self.unconditioned_).astype(float),
-                **_weight_solves(self.lengths_[g, :n], alpha, self.gamma_w_.ravel(),
-                                 nu=(self.eta_w_ + 1.0 / (self.alpha_w_ * self.c_w_)).ravel(),
-                                 beta=self.beta_[:, :, g, :n].reshape(-1, n)),
+                gamma_w=gamma,
+                nugget=alpha * self.eta_w_.ravel(),
+                solves=solves,
+                beta=beta,
+                mean_blocks=solves.in_chunks(alpha[:, None] * beta),
                 boundaries=self.boundaries_[g, : P + 1],
                 support_radius=float(self.support_radius_[g]),
                 dur_mean=self.dur_mean_[g, :P],
@@ -532,55 +619,88 @@ class MovementPrimitives:
         return step if start is None else step.conditioned_on(start)
 
     def predict_many(self, specs: list[StepSpec]) -> list[PredictedStep]:
-        """:meth:`predict` of every step of ``specs``, unconditioned, computed together for
-        the steps of each learned type (a walk's steps then cost a few array operations
-        together, not each), and once for steps that repeat (a steady gait's): the same
-        (unmodified) :class:`PredictedStep` is returned for each."""
+        """:meth:`predict` of every step of ``specs``, unconditioned, computed together (a
+        walk's steps then cost a few array operations together, not each), and once for steps
+        that repeat (a steady gait's): the same (unmodified) :class:`PredictedStep` is
+        returned for each."""
         self._check_fitted()
         unique = list(dict.fromkeys(specs))
         trajectories = [self.trajectory_types(step_type(spec)) for spec in unique]
         for spec, types in zip(unique, trajectories):
             if not types:
                 raise Error(f"the model has no {spec.kind} steps swinging the {spec.swing_side} foot")
-        predicted = {}  # (step index, trajectory type) -> PredictedStep
-        for type_ in {t for types in trajectories for t in types}:
-            rows = [k for k, types in enumerate(trajectories) if type_ in types]
-            for k, step in zip(rows, self._predict_type(type_, [unique[k] for k in rows])):
-                predicted[k, type_] = step
-        steps = {spec: predicted[k, types[0]] if len(types) == 1 else PredictedStep.joined(spec, [predicted[k, t] for t in types])
+        rows: dict[str, list[int]] = {}  # per trajectory type, the steps (of unique) predicted from it
+        for k, types in enumerate(trajectories):
+            for type_ in types:
+                rows.setdefault(type_, []).append(k)
+        predicted = self._predict_types({type_: [unique[k] for k in ks] for type_, ks in rows.items()})
+        of_step = {(k, type_): step for type_, ks in rows.items() for k, step in zip(ks, predicted[type_])}
+        steps = {spec: of_step[k, types[0]] if len(types) == 1 else PredictedStep.joined(spec, [of_step[k, t] for t in types])
                  for k, (spec, types) in enumerate(zip(unique, trajectories))}
         return [steps[spec] for spec in specs]
 
     def trajectory_types(self, name: str) -> list[str]:
         """The learned trajectory types the step type ``name`` (:func:`~cocomopl.primitives.training.step_type`)
         is predicted from: itself, or its parts in order (none if the model has neither)."""
-        if name in self._type_index:
-            return [name]
-        return sorted(t for t in self._type_index if t.startswith(f"{name}_part"))
+        if name not in self._trajectory_types:
+            self._trajectory_types[name] = [name] if name in self._type_index else sorted(
+                t for t in self._type_index if t.startswith(f"{name}_part"))
+        return list(self._trajectory_types[name])
 
-    def _predict_type(self, type_: str, specs: list[StepSpec]) -> list[PredictedStep]:
-        """:meth:`predict_many` for steps of one learned trajectory type (a step type, or a part of one)."""
-        c = self.type_arrays(type_)
-        z = np.array([step_lengths(spec, c.lengths.shape[1]) for spec in specs])
-        d2 = ((c.lengths - z[:, None]) ** 2).sum(axis=-1)  # (steps, n)
-        w, var = weight_posterior(c, d2)
-        shape = (len(specs), *self.alpha_w_.shape)
-        w, var = w.reshape(shape), (np.maximum(var, 0.0) + c.floor).reshape(shape)
-        mean = (w @ self.m_).swapaxes(1, 2)
-        gain, cross, observed = _condition(w, var, self._primitive_moments, c.conditioned)
-        k = c.dur_alpha[:, None] * np.exp(-c.dur_gamma[:, None] * d2)  # (P, steps, n)
-        durations = np.exp(c.dur_mean + (k * c.dur_beta[:, None]).sum(axis=-1).T)
-        log_var = c.dur_alpha[:, 0] - ((k @ c.dur_K_inv) * k).sum(axis=-1).T
-        duration_std = durations * np.sqrt(np.maximum(log_var, 0.0))
-        distance = np.sqrt(d2.min(axis=1))
-        primitives = (self.m_, self.m_var_)
-        return [
-            PredictedStep(spec, self.tau_, [_Part(mean[q], w[q], var[q], gain[q], cross[q], observed[q])],
-                          primitives=primitives, boundaries=c.boundaries, durations=durations[q],
-                          duration_std=duration_std[q], distance=float(distance[q]),
-                          in_support=bool(distance[q] <= c.support_radius + SUPPORT_TOLERANCE))
-            for q, spec in enumerate(specs)
-        ]
+    @functools.cached_property
+    def _trajectory_types(self) -> dict[str, list[str]]:
+        """:meth:`trajectory_types` of the step types asked so far."""
+        return {}
+
+    def _predict_types(self, requests: dict[str, list[StepSpec]]) -> dict[str, list[PredictedStep]]:
+        """:meth:`predict_many` for steps of learned trajectory types (step types, or parts of
+        one), ``{type: steps}``.
+
+        The weights' posterior variance is computed once for the steps of all types that share
+        their training inputs (:class:`WeightSolves`), their means per type, and the rest
+        (signals' means, conditioning gains) for all steps at once.
+        """
+        arrays = {type_: self.type_arrays(type_) for type_ in requests}
+        d2 = {}
+        for type_, specs in requests.items():
+            c = arrays[type_]
+            z = np.array([step_lengths(spec, c.lengths.shape[1]) for spec in specs])
+            d2[type_] = ((c.lengths - z[:, None]) ** 2).sum(axis=-1)  # (steps, n)
+        sharing: dict[WeightSolves, list[str]] = {}
+        for type_ in requests:
+            sharing.setdefault(arrays[type_].solves, []).append(type_)
+        w, var = {}, {}
+        for solves, types in sharing.items():
+            together = np.concatenate([d2[t] for t in types])
+            smooth, same = np.exp(-solves.unique_gamma[:, None, None] * together), together < SAME_LENGTHS_M2
+            variance = _weight_variance(arrays[types[0]], smooth, same)
+            first = 0
+            for type_ in types:
+                rows = slice(first, first + len(d2[type_]))
+                w[type_], var[type_] = _weight_mean(arrays[type_], smooth[:, rows], same[rows]), variance[rows]
+                first = rows.stop
+        shape = (-1, *self.alpha_w_.shape)
+        w = np.concatenate([w[t] for t in requests]).reshape(shape)
+        var = (np.maximum(np.concatenate([var[t] for t in requests]), 0.0) + self._weight_floor).reshape(shape)
+        mean = _times(w, self.m_).swapaxes(1, 2)
+        gain, cross, observed = _condition(w, var, self._primitive_moments, (~self.unconditioned_).astype(float))
+        primitives, out, q = (self.m_, self.m_var_), {}, 0
+        for type_, specs in requests.items():
+            c, distances = arrays[type_], d2[type_]
+            k = c.dur_alpha[:, None] * np.exp(-c.dur_gamma[:, None] * distances)  # (P, steps, n)
+            durations = np.exp(c.dur_mean + (k * c.dur_beta[:, None]).sum(axis=-1).T)
+            distance = np.sqrt(distances.min(axis=1))
+            out[type_] = [
+                PredictedStep(spec, self.tau_, [_Part(mean[q + j], w[q + j], var[q + j], gain[q + j], cross[q + j],
+                                                      observed[q + j], c, distances[j])],
+                              primitives=primitives, boundaries=c.boundaries, durations=durations[j],
+                              distance=float(distance[j]),
+                              in_support=bool(distance[j] <= c.support_radius + SUPPORT_TOLERANCE))
+                for j, spec in enumerate(specs)
+            ]
+            q += len(specs)
+        return out
+
 
     # ------------------------------------------------------------------ score
     def reconstruct(self, steps: TrainingSteps) -> tuple[np.ndarray, np.ndarray]:
@@ -603,9 +723,9 @@ class MovementPrimitives:
         return _fraction_explained(X, X_hat, slice(None))
 
 
-def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, *, nu: np.ndarray, beta: np.ndarray) -> dict:
-    """The weight GPs' solves of one type, laid out so that predicting the K weights of several
-    steps costs a few matrix products.
+def _weight_solves(lengths: np.ndarray, gamma: np.ndarray, *, nu: np.ndarray) -> WeightSolves:
+    """The weight GPs' solves on the training inputs ``lengths`` (n, Z), laid out so that the
+    variance of the K weights of several steps costs a few matrix products.
 
     The solve of weight k is ``C_k = (B_k + I / c_k)^-1`` with the prior ``B_k = alpha_k
     (E(gamma_k) + eta_k I)``, ``E(gamma) = exp(-gamma D)`` over the training inputs' squared
@@ -620,29 +740,18 @@ def _weight_solves(lengths: np.ndarray, alpha: np.ndarray, gamma: np.ndarray, *,
     omnidirectional model's 396 weights share one width, one has a width of its own), and
     padding every group to the largest would multiply the products' cost by nearly four,
     while chunks at most double it.
-
-    Returns the :class:`TypeArrays` fields ``basis`` (G, n, n), ``unique_gamma`` (G,) and
-    ``beta`` (K, n), and the chunks: ``chunk_group`` (C,) the ``gamma`` of each chunk,
-    ``mean_blocks`` ``alpha_k beta_k`` and ``spectral_blocks`` ``1 / (lambda_j + nu_k)``,
-    (C, n, M) each (zero-padded), and ``block_index`` (K,), each weight's column in the
-    flattened (C M) result.
     """
     D = ((lengths[:, None] - lengths[None]) ** 2).sum(axis=-1)
     unique_gamma, gamma_of = np.unique(gamma, return_inverse=True)
     eigenvalues, basis = np.linalg.eigh(np.exp(-unique_gamma[:, None, None] * D))
-    G, n = len(unique_gamma), len(lengths)
-    M = -(-len(alpha) // G)
-    chunk_of, place, chunk_group = np.empty(len(alpha), dtype=int), np.empty(len(alpha), dtype=int), []
-    for g in range(G):
+    M = -(-len(gamma) // len(unique_gamma))
+    block_index, chunk_group = np.empty(len(gamma), dtype=int), []
+    for g in range(len(unique_gamma)):
         members = np.flatnonzero(gamma_of == g)
-        chunk_of[members] = len(chunk_group) + np.arange(len(members)) // M
-        place[members] = np.arange(len(members)) % M
+        block_index[members] = (len(chunk_group) + np.arange(len(members)) // M) * M + np.arange(len(members)) % M
         chunk_group += [g] * -(-len(members) // M)
-    mean_blocks, spectral_blocks = np.zeros((len(chunk_group), n, M)), np.zeros((len(chunk_group), n, M))
-    mean_blocks[chunk_of, :, place] = alpha[:, None] * beta
-    spectral_blocks[chunk_of, :, place] = 1.0 / (eigenvalues[gamma_of] + nu[:, None])
-    return {"basis": basis, "unique_gamma": unique_gamma, "beta": beta, "chunk_group": np.array(chunk_group),
-            "mean_blocks": mean_blocks, "spectral_blocks": spectral_blocks, "block_index": chunk_of * M + place}
+    spectral = _in_chunks(1.0 / (eigenvalues[gamma_of] + nu[:, None]), block_index, len(chunk_group), M)
+    return WeightSolves(lengths, unique_gamma, basis, np.array(chunk_group), M, block_index, spectral)
 
 
 def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -651,32 +760,45 @@ def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndar
 
     The cross-covariances are ``b_k = alpha_k exp(-gamma_k d2) + nugget_k [d2 = 0]``.  The
     nugget is a step's own variation (kriging's nugget effect): it is shared with a training
-    step of the same lengths, which the prediction then reproduces, and with no other.  The
-    variance's quadratic form ``b_k^T C_k b_k`` is taken in the eigenbasis of
-    :func:`_weight_solves`: ``sum_j (u_j^T b_k)^2 / (alpha_k (lambda_j + nu_k))``, with
-    ``u_j^T b_k = alpha_k p_j + nugget_k q_j``, ``p = U^T E(z)`` and ``q = U^T [d2 = 0]``.
+    step of the same lengths, which the prediction then reproduces, and with no other.
     """
-    alpha, nugget = c.alpha_w, c.nugget
-    smooth = np.exp(-c.unique_gamma[:, None, None] * d2)  # E(z), (G, steps, n)
-    p = smooth @ c.basis
+    smooth, same = np.exp(-c.solves.unique_gamma[:, None, None] * d2), d2 < SAME_LENGTHS_M2
+    return _weight_mean(c, smooth, same), _weight_variance(c, smooth, same)
 
-    def per_weight(x: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-        """(G, rows, n) vectors, each chunk's group's multiplied by the chunk's block: (rows, K)."""
-        return (x[c.chunk_group] @ blocks).transpose(1, 0, 2).reshape(x.shape[1], -1)[:, c.block_index]
 
-    mean = c.chi + per_weight(smooth, c.mean_blocks)
-    same = (d2 < SAME_LENGTHS_M2).astype(float)
+def _weight_mean(c: TypeArrays, smooth: np.ndarray, same: np.ndarray) -> np.ndarray:
+    """:func:`weight_posterior`'s mean, from ``smooth`` = E(z) (G, steps, n), one row per
+    distinct width, and ``same`` (steps, n), where a step has a training step's lengths."""
+    mean = c.chi + c.solves.per_weight(smooth, c.mean_blocks)
+    if same.any():
+        mean += c.nugget * (same @ c.beta.T)
+    return mean
+
+
+def _weight_variance(c: TypeArrays, smooth: np.ndarray, same: np.ndarray) -> np.ndarray:
+    """:func:`weight_posterior`'s variance, as :func:`_weight_mean` takes its inputs: the
+    quadratic form ``b_k^T C_k b_k`` in the eigenbasis of :func:`_weight_solves`, ``sum_j
+    (u_j^T b_k)^2 / (alpha_k (lambda_j + nu_k))``, with ``u_j^T b_k = alpha_k p_j + nugget_k
+    q_j``, ``p = U^T E(z)`` and ``q = U^T [d2 = 0]``.  It depends on the type's inputs and
+    the model's hyperparameters only: the same for every type sharing ``c.solves``."""
+    s, alpha, nugget = c.solves, c.alpha_w, c.nugget
+    p = smooth @ s.basis
     if not same.any():
-        return mean, alpha - alpha * per_weight(p**2, c.spectral_blocks)
-    q = same @ c.basis
-    mean += nugget * (same @ c.beta.T)
-    pp, pq, qq = per_weight(np.concatenate([p**2, p * q, q**2], axis=1), c.spectral_blocks).reshape(3, len(d2), -1)
-    return mean, alpha - alpha * pp - 2.0 * nugget * pq - nugget**2 / alpha * qq
+        return alpha - alpha * s.per_weight(p**2, s.spectral_blocks)
+    q = same.astype(float) @ s.basis
+    pp, pq, qq = s.per_weight(np.concatenate([p**2, p * q, q**2], axis=1), s.spectral_blocks).reshape(3, len(same), -1)
+    return alpha - alpha * pp - 2.0 * nugget * pq - nugget**2 / alpha * qq
 
 
 def _show_iteration(bar: tqdm, bound: float) -> None:
     bar.set_postfix(bound=f"{bound:.8g}", refresh=False)
     bar.update()
+
+
+def _times(x: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """``x @ matrix`` for ``x`` (..., k) and ``matrix`` (k, m) as one 2-D product: NumPy
+    multiplies a stack by a matrix one slice at a time, twice as slow for a walk's steps."""
+    return (x.reshape(-1, x.shape[-1]) @ matrix).reshape(*x.shape[:-1], matrix.shape[-1])
 
 
 def _condition(w, var, moments, conditioned) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -713,7 +835,7 @@ def _condition(w, var, moments, conditioned) -> tuple[np.ndarray, np.ndarray, np
     """
     h, primitives, taper = moments
     # Cov(x_i(t), x_i(0)) = sum_s var_is h_s m_s(t) + E[W_is^2] Cov(m_s(t), m_s(0)), (..., T, I)
-    cross = (np.concatenate([var * h, w**2 + var], axis=-1) @ primitives).swapaxes(-1, -2)
+    cross = _times(np.concatenate([var * h, w**2 + var], axis=-1), primitives).swapaxes(-1, -2)
     observed = cross[..., 0, :] * (1.0 + CONDITION_RATIO)  # Var(x_i(0)) plus the observation's variance
     return cross * (conditioned / observed)[..., None, :] * taper, cross, observed
 

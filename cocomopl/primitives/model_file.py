@@ -198,6 +198,7 @@ def save_model(path: str | Path, model: MovementPrimitives, metadata: dict) -> N
         "kernel": str(model.kernel),
         "n_grid": int(model.n_grid),
         "max_iterations": int(model.max_iterations),
+        "n_widths": int(model.n_widths),
         "bound": float(model.bound_),
         "n_iter": int(model.n_iter_),
         "fit_time_s": float(model.fit_time_s_),
@@ -344,6 +345,7 @@ _METADATA = {
     "kernel": (True, PARAMETER_CHECKS["kernel"]),
     "n_grid": (True, PARAMETER_CHECKS["n_grid"]),
     "max_iterations": (False, PARAMETER_CHECKS["max_iterations"]),  # the estimator's default stands in
+    "n_widths": (False, PARAMETER_CHECKS["n_widths"]),  # and here: files before it were trained with the default
     "bound": (True, _real()),
     "n_iter": (True, whole(0)),
     "fit_time_s": (True, _real(0.0)),
@@ -632,7 +634,7 @@ def _model(meta: dict, arrays: dict[str, np.ndarray]) -> MovementPrimitives:
         n_primitives=meta["n_primitives"],
         kernel=meta["kernel"],
         n_grid=meta["n_grid"],
-        **({"max_iterations": meta["max_iterations"]} if "max_iterations" in meta else {}),
+        **{key: meta[key] for key in ("max_iterations", "n_widths") if key in meta},
     )
     for name in REQUIRED:
         setattr(model, f"{name}_", arrays[name])

@@ -35,7 +35,7 @@ LOG_BOUNDS = {
 }
 
 
-GAMMA_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 3e3, 1e4)  # 1/m^2: widths 0.7 m .. 7 mm
+GAMMA_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1e3, 3e3, 1e4)  # 1/m^2: widths 0.7 m .. 7 mm, the start's
 ETA_GRID = tuple(np.geomspace(JITTER, 1.0, 7))  # relative nuggets, a decade apart
 
 
@@ -44,9 +44,10 @@ def bound_data(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, *, tau: np
 
 
 def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, *, tau: np.ndarray, S: int,
-                       signal_weights: np.ndarray):
+                       signal_weights: np.ndarray, widths=GAMMA_GRID):
     """PCA start: MP means are the leading right singular vectors of the (steps x signals,
-    time) data, each signal scaled by ``signal_weights`` (I,)."""
+    time) data, each signal scaled by ``signal_weights`` (I,); the weight kernels' widths
+    (inverse squared, 1/m^2) from ``widths``."""
     I, T = X_slots.shape[2:]
     real = X_slots[mask > 0]  # (K, I, T)
     _, _, Vt = np.linalg.svd((real * signal_weights[None, :, None]).reshape(-1, T), full_matrices=False)
@@ -56,7 +57,7 @@ def initial_parameters(X_slots: np.ndarray, mask: np.ndarray, d2: np.ndarray, *,
     sigma = np.maximum(np.sqrt((residual**2).mean(axis=(0, 2))), 1e-5)
     counts = mask.sum(axis=1)
     chi = (w * mask).sum(axis=-1) / counts
-    alpha_w, gamma_w, eta_w = _weight_kernel_start(w - chi[..., None], mask, d2)
+    alpha_w, gamma_w, eta_w = _weight_kernel_start(w - chi[..., None], mask, d2, widths)
     params = {
         "u": np.zeros((S, T)),
         "log_d": np.log(np.einsum("isgn,i->s", w**2 * mask, 1 / sigma**2) + 1.0),
@@ -85,11 +86,11 @@ def unit_weight_kernels(d2: np.ndarray, mask: np.ndarray, gamma, *, eta) -> np.n
     return np.exp(-gamma * d2) * both + eta * eye * mask[:, :, None] + eye * (1.0 - mask[:, :, None])
 
 
-def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, ...]:
+def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray, widths) -> tuple[np.ndarray, ...]:
     """Per (signal, primitive), the eq. (5) kernel that best explains the PCA weights:
     amplitude, width and nugget.
 
-    A grid over the width and the nugget, with the amplitude in closed form (profile
+    A grid over the width (``widths``) and the nugget, with the amplitude in closed form (profile
     likelihood).  Starting L-BFGS from widths the data support matters: with a too-wide
     kernel the whitened weights blow up and the KL term swamps the bound.
     """
@@ -97,7 +98,7 @@ def _weight_kernel_start(deviation: np.ndarray, mask: np.ndarray, d2: np.ndarray
     I, S, G, N = deviation.shape
     rhs = (deviation * mask).reshape(I * S, G, N).transpose(1, 2, 0)  # (G, N, I S): one kernel for all (i, s)
     best = None
-    for gamma, eta in itertools.product(GAMMA_GRID, ETA_GRID):
+    for gamma, eta in itertools.product(widths, ETA_GRID):
         L = slot_algebra.cholesky(unit_weight_kernels(d2, mask, gamma, eta=eta), groups)  # (G, N, N)
         z = slot_algebra.solve(L, rhs, groups).transpose(2, 0, 1).reshape(I, S, G, N)
         alpha = np.maximum((z**2).sum(axis=(-1, -2)) / n, 1e-12)

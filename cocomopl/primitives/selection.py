@@ -26,7 +26,7 @@ from concurrent.futures.process import BrokenProcessPool
 from tqdm import tqdm
 
 from cocomopl.errors import Error
-from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES
+from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES, DEFAULT_WIDTHS
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.training import TrainingSteps
 
@@ -61,6 +61,7 @@ def select_model(
     kernels: Iterable[str] = DEFAULT_KERNELS,
     *,
     max_iterations: int = DEFAULT_MAX_ITERATIONS,
+    n_widths: int = DEFAULT_WIDTHS,
     workers: int = 1,
     progress: bool = False,
 ) -> tuple[MovementPrimitives, list[dict]]:
@@ -72,6 +73,7 @@ def select_model(
     steps : the training steps
     n_primitives, kernels : the candidates are all their combinations
     max_iterations : the most EM rounds of each fit
+    n_widths : the candidate widths of the weight kernels (:class:`MovementPrimitives`)
     workers : processes to fit in.  They are spawned, not forked: a forked JAX runtime can hang.
         Candidates still fitting when the choice is settled are stopped
     progress : show a bar of the candidates fitted on stderr.  The candidates' own per-iteration
@@ -88,7 +90,7 @@ def select_model(
         If a candidate cannot be fitted to ``steps``, before any is fitted, or if a worker
         process dies.
     """
-    models = _candidates(MovementPrimitives(max_iterations=max_iterations), n_primitives, kernels)
+    models = _candidates(MovementPrimitives(max_iterations=max_iterations, n_widths=n_widths), n_primitives, kernels)
     for model in models:
         model.validate(steps)
     sizes = sorted({model.n_primitives for model in models})
