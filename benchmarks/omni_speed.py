@@ -1,13 +1,13 @@
 """Generation and placement per step, straight against omnidirectional, side by side.
 
-M_gen with the bundled straight model, and with the bundled omnidirectional model the walk to
+M_gen with the bundled straight model, and with the bundled omnidirectional model (or ``--model``) the walk to
 (1.0 m, 0.5 m, 90 deg) and random footstep walks (``--walks`` walks of 12 footsteps, each
 drawn uniformly over the allowed range, as ``random_walks.py --footsteps`` draws them, the
 first swing foot the left; seed ``--seed``): generation (the primitives alone, caches
 built, median of 50 runs; of the random walks, the median over the walks) and placement
 (world placement, dynamics filter, limits, inverse dynamics) per step.
 
-    python benchmarks/omni_speed.py [--walks 10] [--seed 0] [--json]
+    python benchmarks/omni_speed.py [--walks 10] [--seed 0] [--model MODEL.npz] [--json]
 """
 
 import argparse
@@ -21,6 +21,7 @@ import numpy as np
 
 from cocomopl.data import BUNDLED_MODEL, BUNDLED_OMNI_MODEL
 from cocomopl.dataset.design import allowed_footsteps
+from cocomopl.errors import Error
 from cocomopl.gait import M_GEN, sequence_specs
 from cocomopl.motion import Footstep
 from cocomopl.planning.footsteps import footstep_specs
@@ -66,13 +67,18 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--walks", type=int, default=10, help="random footstep walks (default: 10)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first random walk (default: 0)")
+    parser.add_argument("--model", default=str(BUNDLED_OMNI_MODEL), metavar="MODEL.npz",
+                        help="omnidirectional model file (default: the bundled one)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.walks < 1:
-        parser.error(f"--walks must be at least 1, got {args.walks}")
+        parser.exit(2, f"omni_speed.py: error: --walks must be at least 1, got {args.walks}\n")
     warnings.simplefilter("ignore")
+    try:
+        omni = load_model(args.model).prepare()
+    except Error as exc:
+        parser.exit(2, f"omni_speed.py: error: {exc}\n")
     robot = Robot("talos")
-    omni = load_model(BUNDLED_OMNI_MODEL).prepare()
     report = {
         "straight_m_gen": measure(robot, load_model(BUNDLED_MODEL).prepare(), lambda m: sequence_specs(list(M_GEN))),
         "omni_goal_1_0.5_90": measure(robot, omni,
