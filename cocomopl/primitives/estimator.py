@@ -166,8 +166,9 @@ class PredictedStep:
 
     @property
     def duration_std(self) -> np.ndarray:
-        """Standard deviation (P,) of the phase durations, s; computed on demand."""
-        return np.concatenate([_duration_std(part) for part in self._parts])
+        """Standard deviation (P,) of the phase durations, s; computed on demand: each log
+        duration's GP variance carried through the exponential to first order."""
+        return self.durations * np.sqrt(np.maximum(np.concatenate([_log_duration_var(p) for p in self._parts]), 0.0))
 
     @property
     def phase_edges(self) -> np.ndarray:
@@ -215,14 +216,11 @@ def _signal_std(part: _Part, primitives: np.ndarray, primitive_var: np.ndarray, 
     return np.sqrt(np.maximum(variance, 0.0))
 
 
-def _duration_std(part: _Part) -> np.ndarray:
-    """Standard deviation (P,) of a part's phase durations: its log durations' GP variance
-    ``alpha - k^T K^-1 k``, carried through the exponential to first order."""
+def _log_duration_var(part: _Part) -> np.ndarray:
+    """The GP variance (P,) of a part's log phase durations, ``alpha - k^T K^-1 k``."""
     c = part.arrays
     k = c.dur_alpha * np.exp(-c.dur_gamma * part.d2)  # (P, n)
-    durations = np.exp(c.dur_mean + (k * c.dur_beta).sum(axis=-1))
-    log_var = c.dur_alpha[:, 0] - np.einsum("pn,pnm,pm->p", k, c.dur_K_inv, k)
-    return durations * np.sqrt(np.maximum(log_var, 0.0))
+    return c.dur_alpha[:, 0] - np.einsum("pn,pnm,pm->p", k, c.dur_K_inv, k)
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,6 +255,11 @@ class WeightSolves:
     def in_chunks(self, columns: np.ndarray) -> np.ndarray:
         """Per-weight columns (K, n) laid out in chunks (C, n, M), zero-padded."""
         return _in_chunks(columns, self.block_index, len(self.chunk_group), self.chunk_size)
+
+    def cross_kernels(self, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """At squared distances ``d2`` (steps, n) from the training steps: ``E(z)`` (G, steps,
+        n), one row per distinct width, and where a step has a training step's lengths."""
+        return np.exp(-self.unique_gamma[:, None, None] * d2), d2 < SAME_LENGTHS_M2
 
     def per_weight(self, x: np.ndarray, blocks: np.ndarray) -> np.ndarray:
         """(G, rows, n) vectors, one per width, each chunk's width's multiplied by the chunk's
@@ -671,8 +674,7 @@ class MovementPrimitives:
             sharing.setdefault(arrays[type_].solves, []).append(type_)
         w, var = {}, {}
         for solves, types in sharing.items():
-            together = np.concatenate([d2[t] for t in types])
-            smooth, same = np.exp(-solves.unique_gamma[:, None, None] * together), together < SAME_LENGTHS_M2
+            smooth, same = solves.cross_kernels(np.concatenate([d2[t] for t in types]))
             variance = _weight_variance(arrays[types[0]], smooth, same)
             first = 0
             for type_ in types:
@@ -762,7 +764,7 @@ def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndar
     nugget is a step's own variation (kriging's nugget effect): it is shared with a training
     step of the same lengths, which the prediction then reproduces, and with no other.
     """
-    smooth, same = np.exp(-c.solves.unique_gamma[:, None, None] * d2), d2 < SAME_LENGTHS_M2
+    smooth, same = c.solves.cross_kernels(d2)
     return _weight_mean(c, smooth, same), _weight_variance(c, smooth, same)
 
 
