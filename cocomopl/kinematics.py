@@ -130,16 +130,24 @@ def leg_joints(robot: Robot) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def place_legs(
-    robot: Robot, q: np.ndarray, targets: dict[str, pin.SE3], *, legs: dict, height_weight: float = HEIGHT_WEIGHT
+    robot: Robot,
+    q: np.ndarray,
+    targets: dict[str, pin.SE3],
+    *,
+    legs: dict,
+    height_weight: float = HEIGHT_WEIGHT,
+    data: pin.Data | None = None,
 ) -> np.ndarray:
     """``q`` with the legs moved so each sole reaches ``targets[side]``.
 
     Levenberg-Marquardt on the two 6-D sole errors with the twelve leg joints and the
     pelvis height.  The height is weakly held where it was, by ``height_weight`` (m of sole
     error per m of height): it gives way when a leg would otherwise have to stretch beyond
-    its knee limit (long steps in double support).
+    its knee limit (long steps in double support).  ``data``, a ``robot.model`` data to work
+    in, spares callers placing many samples its creation (0.2 ms, as long as the solve).
     """
-    model, data = robot.model, robot.model.createData()
+    model = robot.model
+    data = model.createData() if data is None else data
     q = q.copy()
     height = q[2]
     columns = np.concatenate([legs[side][1] for side in SIDES])

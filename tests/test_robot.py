@@ -1,5 +1,7 @@
 """The robot description, the mirror map, and the dynamic symmetry it relies on."""
 
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -56,7 +58,7 @@ def test_mirror_map_reflects_the_kinematics(name):
     pin.forwardKinematics(model, dm, mirror_configuration(robot, q))
     P = np.diag([1.0, -1.0, 1.0])
     for jid in range(1, model.njoints):
-        partner = model.getJointId(robot.partner_name(model.names[jid]))
+        partner = robot.joint_partner[jid]
         assert np.allclose(P @ d.oMi[jid].translation, dm.oMi[partner].translation, atol=1e-9)
 
 
@@ -110,3 +112,108 @@ def test_unreadable_description_is_a_clear_error(tmp_path):
     path.write_text("{not json")
     with pytest.raises(Error, match="cannot read robot description"):
         Robot(str(path))
+
+
+def talos_from_urdf(tmp_path, edit=lambda urdf: urdf, *, relative: bool = False) -> str:
+    """TALOS's description written for its URDF and SRDF copied into ``tmp_path``, the URDF
+    first passed through ``edit`` (its text); with ``relative`` the files are named relative
+    to the description's folder."""
+    import json
+    import shutil
+
+    from example_robot_data.robots_loader import TalosLoader
+
+    from cocomopl.robot.description import DESCRIPTIONS_DIR
+
+    loader = TalosLoader()
+    (tmp_path / "talos.urdf").write_text(edit(Path(loader.df_path).read_text()))
+    shutil.copy(loader.srdf_path, tmp_path / "talos.srdf")
+    desc = json.loads((DESCRIPTIONS_DIR / "talos.json").read_text())
+    desc.pop("example_robot_data")
+    desc["urdf"], desc["srdf"] = ("talos.urdf", "talos.srdf") if relative else (
+        str(tmp_path / "talos.urdf"), str(tmp_path / "talos.srdf"))
+    path = tmp_path / "mytalos.json"
+    path.write_text(json.dumps(desc))
+    return str(path)
+
+
+def testmirror_partners_are_found_by_structure_not_by_name(robot):
+    """Each left joint's partner is its right namesake, each joint on the sagittal plane its own."""
+    names = robot.model.names
+    for jid in range(2, robot.model.njoints):
+        partner = names[robot.joint_partner[jid]]
+        expected = names[jid].replace("left", "@").replace("right", "left").replace("@", "right")
+        assert partner == expected
+    assert robot.placement_asymmetry == 0.0  # TALOS's placements mirror to 3e-13 m: left as they are
+
+
+def test_joint_groups_follow_the_kinematic_chains():
+    """Arms are the joints off the sagittal plane that carry no sole, whatever their names."""
+    for name, arms, torso in (("talos", "arm_", ("torso", "head")), ("romeo", ("Shoulder", "Elbow", "Wrist"), ("Trunk", "Neck", "Head"))):
+        robot = Robot(name)
+        groups = {g: [robot.joint_names[i] for i in idx] for g, idx in robot.joint_groups().items()}
+        assert groups["arms"] and all(any(a in n for a in np.atleast_1d(arms)) for n in groups["arms"])
+        assert groups["torso"] and all(n.startswith(torso) for n in groups["torso"])
+        assert sorted(n for names in groups.values() for n in names) == sorted(robot.joint_names)
+
+
+def test_an_axis_written_negative_is_mirrored_with_its_sign(tmp_path, robot):
+    """A knee turning about -y (not one of Pinocchio's X/Y/Z joints) loads; its partner turns
+    the opposite way, and the mirror map still reflects the kinematics and the dynamics."""
+    import re
+
+    def flip_left_knee(urdf: str) -> str:
+        joint = re.search(r'<joint name="leg_left_4_joint".*?</joint>', urdf, re.DOTALL).group(0)
+        return urdf.replace(joint, joint.replace('<axis xyz="0 1 0"/>', '<axis xyz="0 -1 0"/>'))
+
+    flipped = Robot(talos_from_urdf(tmp_path, flip_left_knee))
+    knee = flipped.joint_names.index("leg_left_4_joint")
+    assert flipped.model.joints[knee + 2].shortname() == "JointModelRevoluteUnaligned"
+    assert flipped.mirror_sign[knee] == -robot.mirror_sign[knee]
+    assert flipped.leg_roles() == robot.leg_roles()
+    q = random_configuration(flipped, 5)
+    d, dm = flipped.model.createData(), flipped.model.createData()
+    pin.forwardKinematics(flipped.model, d, q)
+    pin.forwardKinematics(flipped.model, dm, mirror_configuration(flipped, q))
+    P = np.diag([1.0, -1.0, 1.0])
+    for jid in range(1, flipped.model.njoints):
+        assert np.allclose(P @ d.oMi[jid].translation, dm.oMi[flipped.joint_partner[jid]].translation, atol=1e-9)
+
+
+def test_a_relative_srdf_is_read_beside_the_description(tmp_path, monkeypatch, robot):
+    (tmp_path / "elsewhere").mkdir()
+    path = talos_from_urdf(tmp_path, relative=True)
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    assert np.array_equal(Robot(path).q_ref, robot.q_ref)
+
+
+def test_a_joint_with_no_mirror_image_is_refused_naming_it(tmp_path):
+    import re
+
+    def shift_left_elbow(urdf: str) -> str:
+        joint = re.search(r'<joint name="arm_left_4_joint".*?</joint>', urdf, re.DOTALL).group(0)
+        origin = re.search(r'xyz="([^"]*)"', joint)
+        x, y, z = map(float, origin.group(1).split())
+        return urdf.replace(joint, joint.replace(origin.group(0), f'xyz="{x + 0.005} {y} {z}"'))
+
+    with pytest.raises(Error, match=r"'arm_left_4_joint' has no mirror image: .* 'arm_right_4_joint', is 5 mm from it"):
+        Robot(talos_from_urdf(tmp_path, shift_left_elbow))
+
+
+def test_placements_a_few_micrometres_apart_are_made_mirror_images():
+    """The Unitree G1's shoulders are 10 um from their partners' reflections: afterwards every
+    pair mirrors to round-off, each joint moved halfway."""
+    import example_robot_data
+
+    from cocomopl.robot.description import mirror_partners, symmetrize_placements, joint_axis
+
+    model = example_robot_data.load("g1").model
+    partner = mirror_partners(model, np.array([joint_axis(model, j) for j in range(2, model.njoints)]), "g1")
+    assert symmetrize_placements(model, partner) == pytest.approx(5e-6, rel=1e-6)
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    P = np.diag([1.0, -1.0, 1.0])
+    for jid in range(2, model.njoints):
+        mirrored = data.oMi[partner[jid]]
+        assert np.allclose(P @ mirrored.translation, data.oMi[jid].translation, atol=1e-12, rtol=0)
+        assert np.allclose(P @ mirrored.rotation @ P, data.oMi[jid].rotation, atol=1e-12, rtol=0)

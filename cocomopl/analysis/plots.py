@@ -60,13 +60,13 @@ def short_title(motion: Motion) -> str:
 def _leg_joint_functions(robot: Robot) -> dict[int, str]:
     """Actuated-joint index -> "left hip yaw", ..., "right ankle roll" for the leg joints."""
     functions = {}
+    axes = robot.axis_names()
     for side, roles in robot.leg_roles().items():
         chain = robot.leg_chain(side)
-        # leg_roles finds the pitch and roll joints only; a joint above the hip roll that
-        # turns about the vertical is the hip yaw (model joint i + 2: after the universe
-        # and the free flyer)
-        for i in chain[: chain.index(roles["hip_roll"])]:
-            if robot.model.joints[i + 2].shortname().endswith("Z"):
+        # leg_roles finds the pitch and roll joints only; a joint above the knee that turns
+        # about the vertical is the hip yaw
+        for i in chain[: chain.index(roles["knee"])]:
+            if axes[i] == "Z":
                 functions[i] = f"{side} hip yaw"
         functions.update({i: f"{side} {role.replace('_', ' ')}" for role, i in roles.items()})
     return functions

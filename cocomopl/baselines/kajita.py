@@ -384,9 +384,9 @@ def _whole_body(
         heading = mean_yaw(soles.yaws[k, 0], soles.yaws[k, 1])
         q[3:7] = pin.Quaternion(flat_placement(0.0, 0.0, heading).rotation @ upright).coeffs()
         for _ in range(iterations):
-            q = place_legs(robot, q, targets, legs=legs)
+            q = place_legs(robot, q, targets, legs=legs, data=data)
             q[:2] += com[k] - pin.centerOfMass(model, data, q)[:2]
-        out[k] = q = place_legs(robot, q, targets, legs=legs)
+        out[k] = q = place_legs(robot, q, targets, legs=legs, data=data)
     return out
 
 

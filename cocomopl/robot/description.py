@@ -1,14 +1,17 @@
 """Humanoid robot descriptions: a Pinocchio model plus what walking needs to know about it.
 
-A description is a small JSON file (see ``talos.json`` beside this module).  It names
-where the URDF comes from, the foot (sole) frames and their rectangles, joints to lock,
-the reference posture and how left/right parts are named.  Everything else -- the
-actuated-joint order, the limits and the left/right mirror map -- is derived from the
-URDF, so any URDF humanoid works through a few lines of JSON.
+A description is a small JSON file (``docs/robots.md``; ``talos.json`` beside this module).
+It names where the URDF comes from, the foot (sole) frames and their rectangles, the pelvis
+frame, joints to lock and the reference posture.  Everything else -- the actuated-joint
+order, the limits, the left/right mirror partners (by structure: each joint's partner is
+the joint at its reflection), the joint groups (by kinematic chain) and the leg joints'
+roles (by axis) -- is derived from the URDF, so any URDF humanoid works through a few lines
+of JSON.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 from dataclasses import dataclass
@@ -21,6 +24,12 @@ from cocomopl.errors import Error
 
 DESCRIPTIONS_DIR = Path(__file__).parent
 DEFAULT_ROBOT = "talos"
+MIRROR_TOLERANCE_M = 1e-3  # a joint's mirror partner is the joint this close to its reflection
+MIRROR_ALIGNMENT = 0.95  # and whose axis is this aligned with its reflected axis (|cos|)
+SYMMETRISED_ABOVE = 1e-9  # m and rad: a pair's placements differing by less are left as they are
+SAME_CONVENTION_RAD = 1e-3  # partner frames turned further apart follow different axis conventions
+_P = np.diag([1.0, -1.0, 1.0])  # the sagittal reflection y -> -y
+_AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
 
 
 @dataclass(frozen=True)
@@ -61,8 +70,9 @@ def read_description(name_or_path: str) -> dict:
     for key in ("name", "feet", "sole", "pelvis"):
         if key not in desc:
             raise Error(f"robot description {path} lacks the key {key!r}")
-    if "urdf" in desc and not Path(desc["urdf"]).is_absolute():
-        desc["urdf"] = str((path.parent / desc["urdf"]).resolve())
+    for key in ("urdf", "srdf"):  # relative to the description's folder, not the working one
+        if key in desc and not Path(desc[key]).is_absolute():
+            desc[key] = str((path.parent / desc[key]).resolve())
     return desc
 
 
@@ -89,7 +99,12 @@ def _load_full_model(desc: dict, visuals: bool = False):
         except (RuntimeError, ValueError) as exc:
             raise Error(f"cannot parse URDF {urdf}: {exc}") from None
         if "srdf" in desc:
-            pin.loadReferenceConfigurations(model, desc["srdf"], False)
+            if not Path(desc["srdf"]).exists():
+                raise Error(f"SRDF not found: {desc['srdf']}")
+            try:
+                pin.loadReferenceConfigurations(model, desc["srdf"], False)
+            except (RuntimeError, ValueError) as exc:
+                raise Error(f"cannot read SRDF {desc['srdf']}: {exc}") from None
     else:
         raise Error(f"robot description {desc['name']!r} names neither 'urdf' nor 'example_robot_data'")
     posture_name = desc.get("reference_posture")
@@ -117,6 +132,84 @@ def _locked_joint_ids(model: pin.Model, desc: dict) -> list[int]:
     return ids
 
 
+def joint_axis(model: pin.Model, jid: int, robot: str = "") -> np.ndarray:
+    """The unit axis of the revolute joint ``jid`` in its own frame.
+
+    Raises
+    ------
+    Error
+        If the joint is not revolute (about X, Y, Z or any unit axis).
+    """
+    joint = model.joints[jid]
+    kind = joint.shortname()
+    if kind == "JointModelRevoluteUnaligned":
+        return np.array(joint.extract().axis, dtype=float)
+    if kind in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+        return _AXES[kind[-1]].copy()
+    raise Error(f"robot {robot!r}: joint {model.names[jid]!r} is not a revolute joint ({kind})")
+
+
+def mirror_partners(model: pin.Model, axes: np.ndarray, robot: str) -> list[int]:
+    """Each joint's mirror partner (a joint id per joint id), by structure: the joint whose origin lies
+    within :data:`MIRROR_TOLERANCE_M` of the joint's reflection at the neutral configuration,
+    its axis aligned with the reflected one; a joint on the sagittal plane is its own.  The
+    nearest such joint is taken, so joints sharing an origin pair by axis."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    origin = np.array([data.oMi[j].translation for j in range(model.njoints)])
+    world_axes = np.array([data.oMi[j].rotation @ axes[j - 2] for j in range(2, model.njoints)])
+    partner = np.arange(model.njoints)
+    for i in range(2, model.njoints):
+        distance = np.linalg.norm(origin[2:] - _P @ origin[i], axis=1)
+        aligned = np.abs(world_axes @ (_P @ world_axes[i - 2])) > MIRROR_ALIGNMENT
+        candidates = np.flatnonzero(aligned & (distance < MIRROR_TOLERANCE_M))
+        if len(candidates) == 0:
+            nearest = int(np.argmin(distance))
+            raise Error(
+                f"robot {robot!r}: joint {model.names[i]!r} has no mirror image: the nearest joint to its "
+                f"reflection, {model.names[nearest + 2]!r}, is {distance[nearest] * 1000:.3g} mm from it "
+                f"(tolerance {MIRROR_TOLERANCE_M * 1000:g} mm)"
+            )
+        partner[i] = candidates[np.argmin(distance[candidates])] + 2
+    return partner.tolist()
+
+
+def symmetrize_placements(model: pin.Model, partner: list[int]) -> float:
+    """Move each pair of mirror partners halfway to each other's reflection (at the neutral
+    configuration), so that a mirrored motion moves the same bodies the same way.
+
+    URDFs of nominally symmetric robots differ left to right by CAD round-off (the Unitree
+    G1's shoulders by 10 um): the inverse dynamics of a mirrored motion then misses by more
+    than a solver's tolerance.  Pairs closer than :data:`SYMMETRISED_ABOVE` are left as they
+    are, and so are pairs whose frames follow different axis conventions (turned apart by more
+    than :data:`SAME_CONVENTION_RAD`: their axes are checked by the mirror map instead).
+    Returns the largest move of a joint's origin (m), as a record of the change.
+    """
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    world = [data.oMi[j].copy() for j in range(model.njoints)]
+    moved = np.zeros(model.njoints, dtype=bool)
+    largest = 0.0
+    for i in range(1, model.njoints):
+        j = partner[i]
+        if j < i:
+            continue
+        reflected = pin.SE3(_P @ world[j].rotation @ _P, _P @ world[j].translation)
+        error = pin.log6(world[i].actInv(reflected))
+        if np.linalg.norm(error.angular) > SAME_CONVENTION_RAD or max(
+                np.linalg.norm(error.linear), np.linalg.norm(error.angular)) <= SYMMETRISED_ABOVE:
+            continue
+        world[i] = world[i] * pin.exp6(0.5 * error)
+        world[j] = pin.SE3(_P @ world[i].rotation @ _P, _P @ world[i].translation)
+        moved[[i, j]] = True
+        largest = max(largest, 0.5 * float(np.linalg.norm(reflected.translation - data.oMi[i].translation)))
+    for k in range(1, model.njoints):
+        parent = model.parents[k]
+        if moved[k] or moved[parent]:
+            model.jointPlacements[k] = world[parent].actInv(world[k])
+    return largest
+
+
 class Robot:
     """A floating-base humanoid for walking.
 
@@ -134,8 +227,15 @@ class Robot:
         The sole rectangle, the same for both feet (mirrored).
     q_ref : ndarray (nq,)
         Reference standing posture.
+    joint_axes : ndarray (nu, 3)
+        Each actuated joint's unit axis in its own frame.
+    joint_partner : list of int
+        Each joint's mirror partner (a model joint id per model joint id, found by structure).
     mirror_perm, mirror_sign : ndarray (nu,)
         Left/right mirror map: mirrored joint ``i`` is ``mirror_sign[i] * q[mirror_perm[i]]``.
+    placement_asymmetry, inertia_asymmetry : float
+        The largest move of a joint's origin and of a link's centre of mass made to render
+        the model exactly symmetric, m (0 when the description turns ``symmetrize`` off).
     """
 
     def __init__(self, name_or_path: str = DEFAULT_ROBOT):
@@ -152,10 +252,16 @@ class Robot:
         self.model: pin.Model = pin.buildReducedModel(full, locked, q_full_ref) if locked else full
         self.q_ref = self._reduce_configuration(full, q_full_ref)
         self.nu = self.model.nv - 6
-        for joint in self.model.joints[2:]:
+        for jid in range(2, self.model.njoints):
+            joint = self.model.joints[jid]
             if joint.nq != 1 or joint.nv != 1:
-                raise Error(f"robot {self.name!r}: only 1-DOF actuated joints are supported")
+                raise Error(f"robot {self.name!r}: joint {self.model.names[jid]!r} is not a 1-DOF joint "
+                            f"({joint.shortname()}); only 1-DOF actuated joints are supported")
         self.joint_names: list[str] = list(self.model.names[2:])
+        self.joint_axes = np.array([joint_axis(self.model, jid, self.name) for jid in range(2, self.model.njoints)])
+        symmetrize = bool(desc.get("symmetrize", True))
+        self.joint_partner = mirror_partners(self.model, self.joint_axes, self.name)
+        self.placement_asymmetry = symmetrize_placements(self.model, self.joint_partner) if symmetrize else 0.0
         self.q_lower = np.array(self.model.lowerPositionLimit[7:])
         self.q_upper = np.array(self.model.upperPositionLimit[7:])
         self.v_max = np.array(self.model.velocityLimit[6:])
@@ -168,7 +274,7 @@ class Robot:
         # kinematically possible but walking is not (legs nearly straight)
         self.max_step_length = float(desc.get("max_step_length", np.inf))
         self.mirror_perm, self.mirror_sign = self._derive_mirror_map()
-        self.inertia_asymmetry = self._symmetrize_inertias() if desc.get("symmetrize_inertias", True) else 0.0
+        self.inertia_asymmetry = self._symmetrize_inertias() if symmetrize else 0.0
 
     # ------------------------------------------------------------------ set-up helpers
     def _frame_id(self, name: str) -> int:
@@ -184,54 +290,25 @@ class Robot:
             q[self.model.idx_qs[jid]] = q_full[full.idx_qs[full.getJointId(name)]]
         return q
 
-    def partner_name(self, name: str) -> str:
-        """The left/right counterpart of a joint or frame name (the name itself if central)."""
-        sides = self.description.get("side_names", {"left": "left", "right": "right"})
-        pairs = [(sides["left"], sides["right"])]
-        if "left_lower" in sides:
-            pairs.append((sides["left_lower"], sides["right_lower"]))
-        for a, b in pairs:
-            for x, y in ((a, b), (b, a)):
-                if name.startswith(x) and (len(x) > 1 or name[len(x) : len(x) + 1].isupper()):
-                    return y + name[len(x) :]
-                token = f"_{x}_"
-                if len(x) > 1 and token in name:
-                    return name.replace(token, f"_{y}_", 1)
-        return name
-
     def _derive_mirror_map(self) -> tuple[np.ndarray, np.ndarray]:
         """Joint permutation and signs of the sagittal (y -> -y) reflection.
 
         A rotation about axis ``a`` by ``theta`` reflects to a rotation about ``P a`` by
         ``-theta`` (``P = diag(1, -1, 1)``), so the partner joint turns with sign
         ``-(P a) . b`` where ``b`` is the partner's axis, both taken in the world frame at
-        the reference posture.
+        the neutral configuration (the structure's: a reference posture need not be symmetric).
         """
         model, data = self.model, self.model.createData()
-        pin.forwardKinematics(model, data, self.q_ref)
-        P = np.diag([1.0, -1.0, 1.0])
-        axes = {}
-        for jid in range(2, model.njoints):
-            motion = model.joints[jid].shortname()
-            local = {"X": [1.0, 0, 0], "Y": [0, 1.0, 0], "Z": [0, 0, 1.0]}.get(motion[-1])
-            if local is None:
-                raise Error(f"robot {self.name!r}: joint {model.names[jid]!r} is not a revolute X/Y/Z joint")
-            axes[model.names[jid]] = data.oMi[jid].rotation @ np.array(local)
-        perm = np.zeros(self.nu, dtype=int)
-        sign = np.zeros(self.nu)
-        for i, name in enumerate(self.joint_names):
-            partner = self.partner_name(name)
-            if partner not in axes:
-                raise Error(f"robot {self.name!r}: joint {name!r} has no mirror partner {partner!r}")
-            alignment = -(P @ axes[name]) @ axes[partner]
-            if abs(alignment) < 0.95:
-                raise Error(
-                    f"robot {self.name!r}: joints {name!r} and {partner!r} are not mirror images "
-                    f"at the reference posture (axis alignment {alignment:.2f})"
-                )
-            perm[i] = self.joint_names.index(partner)
-            sign[i] = np.sign(alignment)
-        return perm, sign
+        pin.forwardKinematics(model, data, pin.neutral(model))
+        axes = np.array([data.oMi[jid].rotation @ self.joint_axes[jid - 2] for jid in range(2, model.njoints)])
+        perm = np.array(self.joint_partner[2:]) - 2
+        alignment = -np.einsum("ij,ij->i", axes @ _P, axes[perm])
+        for i in np.flatnonzero(np.abs(alignment) < MIRROR_ALIGNMENT):
+            raise Error(
+                f"robot {self.name!r}: joints {self.joint_names[i]!r} and {self.joint_names[perm[i]]!r} are not "
+                f"mirror images (axis alignment {alignment[i]:.2f})"
+            )
+        return perm, np.sign(alignment)
 
     def _symmetrize_inertias(self) -> float:
         """Replace each link's inertia by the mean of itself and its mirrored partner.
@@ -251,7 +328,7 @@ class Robot:
         pin.forwardKinematics(model, data_m, mirror_configuration(self, self.q_ref))
         averaged = []
         for jid in range(1, model.njoints):
-            partner = model.getJointId(self.partner_name(model.names[jid]))
+            partner = self.joint_partner[jid]
             own, other = model.inertias[jid], model.inertias[partner]
             # the partner's inertia reflected through the world and read in this link's frame
             R_o, p_o = data_m.oMi[partner].rotation, data_m.oMi[partner].translation
@@ -300,20 +377,23 @@ class Robot:
 
     def joint_groups(self) -> dict[str, np.ndarray]:
         """Actuated-joint indices of the ``legs`` (the chains to the soles), the ``arms`` (the
-        other joints named ``arm...``) and the ``torso`` (the rest, the head among them)."""
+        other joints off the sagittal plane: each has a mirror partner other than itself) and
+        the ``torso`` (the joints on the plane, the head's among them)."""
         legs = set(self.leg_joint_indices())
-        arms = [i for i, name in enumerate(self.joint_names) if i not in legs and name.startswith("arm")]
+        arms = [i for i in range(self.nu) if i not in legs and self.mirror_perm[i] != i]
         torso = [i for i in range(self.nu) if i not in legs and i not in arms]
         return {"legs": np.array(sorted(legs), dtype=int), "torso": np.array(torso, dtype=int), "arms": np.array(arms, dtype=int)}
 
     def leg_roles(self) -> dict[str, dict[str, int]]:
         """Per side, the actuated-joint indices of hip roll and pitch, knee, and ankle pitch and
-        roll, found by axis along the chain from the pelvis to the sole: the first X and Y
-        joints are the hip's, the last Y and X the ankle's, the Y joint between them the knee."""
+        roll, found by axis along the chain from the pelvis to the sole: the first X (roll)
+        and Y (pitch) joints are the hip's, the last Y and X the ankle's, the Y joint between
+        them the knee (:meth:`axis_names`)."""
         out = {}
+        names = self.axis_names()
         for side in self.foot_frames:
             chain = self.leg_chain(side)
-            axis = {i: self.model.joints[i + 2].shortname()[-1] for i in chain}
+            axis = {i: names[i] for i in chain}
             xs = [i for i in chain if axis[i] == "X"]
             ys = [i for i in chain if axis[i] == "Y"]
             if len(xs) < 2 or len(ys) < 3:
@@ -321,14 +401,29 @@ class Robot:
             out[side] = {"hip_roll": xs[0], "hip_pitch": ys[0], "knee": ys[1], "ankle_pitch": ys[-1], "ankle_roll": xs[-1]}
         return out
 
+    def axis_names(self) -> list[str]:
+        """Per actuated joint, ``"X"``, ``"Y"`` or ``"Z"``: the pelvis axis its own axis is
+        nearest to at the neutral configuration (roll, pitch or yaw)."""
+        data = self.model.createData()
+        pin.forwardKinematics(self.model, data, pin.neutral(self.model))
+        pelvis = data.oMi[1].rotation
+        return ["XYZ"[int(np.argmax(np.abs(pelvis.T @ data.oMi[jid].rotation @ self.joint_axes[jid - 2])))]
+                for jid in range(2, self.model.njoints)]
+
     def state_from_posture(self, q: np.ndarray) -> np.ndarray:
         """A static state ``x = (q, 0)``."""
         return np.concatenate([q, np.zeros(self.model.nv)])
 
     def frame_placement(self, q: np.ndarray, frame: int) -> pin.SE3:
-        data = self.model.createData()
-        pin.framesForwardKinematics(self.model, data, q)
-        return data.oMf[frame].copy()
+        """The placement of ``frame`` at the configuration ``q``."""
+        pin.forwardKinematics(self.model, self._placement_data, q)
+        return pin.updateFramePlacement(self.model, self._placement_data, frame).copy()
+
+    @functools.cached_property
+    def _placement_data(self) -> pin.Data:
+        """The data :meth:`frame_placement` works in: creating one costs it ten times its
+        kinematics, and it is called per sample."""
+        return self.model.createData()
 
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, actuated={self.nu})"

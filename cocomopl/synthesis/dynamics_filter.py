@@ -183,7 +183,7 @@ def dynamics_filter(
         q_pass = q.copy()
         q_pass[:, :2] += shift
         q_pass = np.array(
-            [place_legs(robot, qk, dict(zip(SIDES, tk)), legs=legs, height_weight=FILTER_HEIGHT_WEIGHT)
+            [place_legs(robot, qk, dict(zip(SIDES, tk)), legs=legs, height_weight=FILTER_HEIGHT_WEIGHT, data=data)
              for qk, tk in zip(q_pass, targets)]
         )
         zmp = multibody_zmp(robot, t, q_pass, contact=contact, impacts=impacts)
