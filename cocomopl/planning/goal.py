@@ -21,7 +21,6 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from cocomopl.errors import Error, parse_finite
 from cocomopl.gait import FOOTSTEP_RANGE, OTHER_SIDE, check_footstep, wrap_angle
@@ -75,6 +74,8 @@ def _end_error(robot: Robot, goal: np.ndarray, specs: list[StepSpec]) -> np.ndar
 
 def _solve(robot: Robot, goal: np.ndarray, n: int, lead: str, limits: dict) -> tuple[float, float, float] | None:
     """The gait whose ``n`` landings from ``lead`` end at ``goal``, or None."""
+    from scipy.optimize import least_squares  # 0.4 s to load: only walks to goals pay it
+
     (l0, l1), (_, w1), (t0, t1) = limits["length"], limits["width"], limits["turn"]
     turn = min(t1, -t0)  # both feet take it, one toes out and the other toes in
     lateral = w1 - turn_step_out(turn)  # the widest side step that still has room to turn

@@ -8,7 +8,6 @@ likelihood.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 LOG_BOUNDS = [(np.log(1e-8), np.log(10.0)), (np.log(1.0), np.log(1e4)), (np.log(1e-10), np.log(1.0))]
 
@@ -28,6 +27,8 @@ def _neg_log_marginal(log_hyper: np.ndarray, z: np.ndarray, y: np.ndarray) -> fl
 
 def fit_gp(z: np.ndarray, y: np.ndarray) -> dict:
     """Fit a GP ``y(z)``; returns its mean, hyperparameters, ``K^-1 (y - mean)`` and ``K^-1``."""
+    from scipy.optimize import minimize  # 0.5 s to load: only training pays it, not prediction
+
     mean = float(y.mean())
     centred = y - mean
     start = np.log([max(centred.var(), 1e-6), 50.0, 1e-6])

@@ -25,7 +25,6 @@ from dataclasses import asdict, dataclass
 
 import mujoco
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 from tqdm import tqdm
 
 from cocomopl.analysis.metrics import FALL_HEIGHT_RATIO, FALL_TILT
@@ -72,6 +71,9 @@ def low_passed(samples: np.ndarray, dt: float, cutoff: float) -> np.ndarray:
     ``cutoff`` Hz (0: unchanged)."""
     if not cutoff:
         return samples
+    # imported here: scipy.signal takes 0.7 s to load, which every command would pay
+    from scipy.signal import butter, sosfiltfilt
+
     # the robot stands still before and after: extend the ends with constant postures
     sos = butter(2, cutoff, fs=1.0 / dt, output="sos")
     return sosfiltfilt(sos, samples, axis=0, padtype="constant", padlen=min(len(samples) - 1, int(1.0 / dt)))
