@@ -47,7 +47,7 @@ def test_mirror_is_an_exact_involution(robot):
     assert np.array_equal(mirror_wrenches(mirror_wrenches(wrenches)), wrenches)
 
 
-@pytest.mark.parametrize("name", ["talos", "romeo"])
+@pytest.mark.parametrize("name", ["talos", "romeo", "g1"])
 def test_mirror_map_reflects_the_kinematics(name):
     """Every joint of a mirrored configuration sits where its partner's reflection is."""
     robot = Robot(name)
@@ -62,7 +62,7 @@ def test_mirror_map_reflects_the_kinematics(name):
         assert np.allclose(P @ d.oMi[jid].translation, dm.oMi[partner].translation, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["talos", "romeo"])
+@pytest.mark.parametrize("name", ["talos", "romeo", "g1"])
 def test_mirrored_dynamics_agree(name):
     """Inverse dynamics of a mirrored (q, v, a) is the mirrored generalized force."""
     robot = Robot(name)
@@ -217,3 +217,45 @@ def test_placements_a_few_micrometres_apart_are_made_mirror_images():
         mirrored = data.oMi[partner[jid]]
         assert np.allclose(P @ mirrored.translation, data.oMi[jid].translation, atol=1e-12, rtol=0)
         assert np.allclose(P @ mirrored.rotation @ P, data.oMi[jid].rotation, atol=1e-12, rtol=0)
+
+
+def test_the_g1_stands_on_soles_derived_from_its_collision_spheres():
+    """The G1's description names no soles and no posture: its soles are found 35 mm under
+    the ankle rolls (its four contact spheres' bottoms) and it stands on them, knees bent."""
+    robot = Robot("g1")
+    assert (robot.sole.front, robot.sole.back, robot.sole.half_width) == pytest.approx((0.12, 0.05, 0.025), abs=1e-12)
+    for side, frame in robot.foot_frames.items():
+        sole = robot.model.frames[frame]
+        assert robot.model.names[sole.parentJoint] == f"{side}_ankle_roll_joint"
+        assert np.allclose(sole.placement.translation, [0.0, 0.0, -0.035], atol=1e-12)
+        standing = robot.frame_placement(robot.q_ref, frame)
+        assert abs(standing.translation[2]) < 1e-5 and np.allclose(standing.rotation, np.eye(3), atol=1e-5)
+    assert all(0.3 < robot.q_ref[7 + roles["knee"]] < 1.5 for roles in robot.leg_roles().values())
+    neutral = pin.neutral(robot.model)
+    height = neutral[2] - robot.frame_placement(neutral, robot.foot_frames["left"]).translation[2]
+    assert robot.q_ref[2] == pytest.approx(0.94 * height, abs=1e-9)
+
+
+def test_soles_derived_from_talos_s_collision_mesh_lie_within_its_measured_soles(tmp_path, robot):
+    import json
+
+    from cocomopl.robot.description import DESCRIPTIONS_DIR
+
+    desc = json.loads((DESCRIPTIONS_DIR / "talos.json").read_text())
+    del desc["feet"], desc["sole"]
+    (tmp_path / "talos.json").write_text(json.dumps(desc))
+    derived = Robot(str(tmp_path / "talos.json"))
+    given = robot.model.frames[robot.foot_frames["left"]].placement.translation
+    found = derived.model.frames[derived.foot_frames["left"]].placement.translation
+    assert np.allclose(found, given, atol=1e-3)  # the sole plane 107 mm under the ankle
+    for size in ("front", "back", "half_width"):
+        assert 0.85 * getattr(robot.sole, size) < getattr(derived.sole, size) <= getattr(robot.sole, size)
+
+
+def test_a_pelvis_height_above_straight_legs_is_one_line(tmp_path):
+    import json
+
+    (tmp_path / "tall.json").write_text(json.dumps({"name": "g1", "example_robot_data": "g1", "pelvis": "pelvis",
+                                                     "pelvis_height": 2.0}))
+    with pytest.raises(Error, match=r"pelvis_height 2 m is not within \(0, 0\.792\] m"):
+        Robot(str(tmp_path / "tall.json"))

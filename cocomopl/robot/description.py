@@ -28,6 +28,8 @@ MIRROR_TOLERANCE_M = 1e-3  # a joint's mirror partner is the joint this close to
 MIRROR_ALIGNMENT = 0.95  # and whose axis is this aligned with its reflected axis (|cos|)
 SYMMETRISED_ABOVE = 1e-9  # m and rad: a pair's placements differing by less are left as they are
 SAME_CONVENTION_RAD = 1e-3  # partner frames turned further apart follow different axis conventions
+CONTACT_BAND_M = 2e-3  # collision points this close above the lowest one touch the floor standing
+PELVIS_DROP = 0.06  # a derived posture's pelvis, as a share of its height with straight legs (TALOS: 64 of 1083 mm)
 _P = np.diag([1.0, -1.0, 1.0])  # the sagittal reflection y -> -y
 _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
 
@@ -67,7 +69,7 @@ def read_description(name_or_path: str) -> dict:
         raise Error(f"robot description not found: {path}") from None
     except (OSError, json.JSONDecodeError) as exc:
         raise Error(f"cannot read robot description {path}: {exc}") from None
-    for key in ("name", "feet", "sole", "pelvis"):
+    for key in ("name", "pelvis"):
         if key not in desc:
             raise Error(f"robot description {path} lacks the key {key!r}")
     for key in ("urdf", "srdf"):  # relative to the description's folder, not the working one
@@ -76,10 +78,9 @@ def read_description(name_or_path: str) -> dict:
     return desc
 
 
-def _load_full_model(desc: dict, visuals: bool = False):
-    """The unreduced model and the reference posture named by the description, if any;
-    with ``visuals``, also the URDF's visual geometry model."""
-    visual = None
+def _load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
+    """The unreduced model, the reference posture named by the description (or None) and,
+    if ``geometry`` is given, the URDF's visual or collision geometry model (else None)."""
     if "example_robot_data" in desc:
         import example_robot_data
 
@@ -87,15 +88,16 @@ def _load_full_model(desc: dict, visuals: bool = False):
             wrapper = example_robot_data.load(desc["example_robot_data"])
         except Exception as exc:  # the loader raises bare ValueError/KeyError for unknown names
             raise Error(f"example-robot-data cannot load {desc['example_robot_data']!r}: {exc}") from None
-        model, visual = wrapper.model, wrapper.visual_model
+        model = wrapper.model
+        shapes = {pin.GeometryType.VISUAL: wrapper.visual_model, pin.GeometryType.COLLISION: wrapper.collision_model,
+                  None: None}[geometry]
     elif "urdf" in desc:
         urdf = Path(desc["urdf"])
         if not urdf.exists():
             raise Error(f"URDF not found: {urdf}")
         try:
             model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
-            if visuals:
-                visual = pin.buildGeomFromUrdf(model, str(urdf), pin.GeometryType.VISUAL, [str(urdf.parent)])
+            shapes = None if geometry is None else pin.buildGeomFromUrdf(model, str(urdf), geometry, [str(urdf.parent)])
         except (RuntimeError, ValueError) as exc:
             raise Error(f"cannot parse URDF {urdf}: {exc}") from None
         if "srdf" in desc:
@@ -114,9 +116,7 @@ def _load_full_model(desc: dict, visuals: bool = False):
             q_ref = np.array(model.referenceConfigurations[posture_name])
         except (KeyError, IndexError):
             raise Error(f"robot {desc['name']!r} has no reference posture {posture_name!r}") from None
-    if visuals:
-        return model, q_ref, visual
-    return model, q_ref
+    return model, q_ref, shapes
 
 
 def _locked_joint_ids(model: pin.Model, desc: dict) -> list[int]:
@@ -130,6 +130,105 @@ def _locked_joint_ids(model: pin.Model, desc: dict) -> list[int]:
             raise Error(f"robot {desc['name']!r}: no joint named {name!r} to lock")
         ids.append(model.getJointId(name))
     return ids
+
+
+def _lowest_points(geometry, placement: pin.SE3) -> np.ndarray:
+    """Points (k, 3) in the world that bound the bottom of one collision geometry."""
+    shape = type(geometry).__name__
+    if shape == "Sphere":
+        return (placement.translation - [0.0, 0.0, geometry.radius])[None]
+    if shape == "Box":
+        corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * geometry.halfSide
+    elif shape in ("Capsule", "Cylinder"):
+        ring = np.array([[np.cos(a), np.sin(a), 0.0] for a in np.linspace(0, 2 * np.pi, 16, endpoint=False)])
+        ends = np.array([[0, 0, -geometry.halfLength], [0, 0, geometry.halfLength]])
+        corners = (ends[:, None] + geometry.radius * ring[None]).reshape(-1, 3)
+        if shape == "Capsule":
+            caps = np.array([[0.0, 0.0, -geometry.radius], [0.0, 0.0, geometry.radius]])
+            corners = np.vstack([corners, ends + caps[:, None]]).reshape(-1, 3)
+    elif hasattr(geometry, "vertices"):
+        corners = np.asarray(geometry.vertices())
+    else:
+        return np.empty((0, 3))
+    return corners @ placement.rotation.T + placement.translation
+
+
+def derive_soles(model: pin.Model, collision: pin.GeometryModel, robot: str):
+    """The sole frames and rectangle of a robot whose description names none, from the
+    collision geometry of its feet standing at the neutral configuration: per side the
+    placement (in its joint's frame) of a frame on the floor under the foot's joint, x
+    forward and z up, and the largest rectangle (front, back, half width) about that frame
+    inside the points of the foot that touch the floor."""
+    data, gdata = model.createData(), collision.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    pin.updateGeometryPlacements(model, data, collision, gdata)
+    points = {}
+    for k, g in enumerate(collision.geometryObjects):
+        p = _lowest_points(g.geometry, gdata.oMg[k])
+        if len(p):
+            points.setdefault(g.parentJoint, []).append(p)
+    if not points:
+        raise Error(f"robot {robot!r}: no collision geometry to find its soles from; name them in 'feet' and 'sole'")
+    points = {j: np.vstack(p) for j, p in points.items()}
+    floor = min(p[:, 2].min() for p in points.values())
+    feet = [j for j, p in points.items() if p[:, 2].min() < floor + CONTACT_BAND_M]
+    if len(feet) != 2:
+        raise Error(f"robot {robot!r}: {len(feet)} links touch the floor at the neutral configuration "
+                    f"({', '.join(model.names[j] for j in feet)}), not two feet; name the soles in 'feet' and 'sole'")
+    frames, rectangles = {}, []
+    for joint in sorted(feet, key=lambda j: -data.oMi[j].translation[1]):
+        side = "left" if data.oMi[joint].translation[1] > 0 else "right"
+        if side in frames:
+            raise Error(f"robot {robot!r}: both feet on the {side} at the neutral configuration")
+        touching = points[joint][points[joint][:, 2] < floor + CONTACT_BAND_M]
+        origin = np.array([*data.oMi[joint].translation[:2], floor])
+        frames[side] = (joint, data.oMi[joint].actInv(pin.SE3(np.eye(3), origin)))
+        rectangle = _inscribed_rectangle(touching[:, :2] - origin[:2])
+        if rectangle is None:
+            raise Error(f"robot {robot!r}: the {side} foot's floor contacts do not surround its joint; "
+                        "name the soles in 'feet' and 'sole'")
+        rectangles.append(rectangle)
+    front, back, half_width = np.min(rectangles, axis=0)
+    return frames, (float(front), float(back), float(half_width))
+
+
+def _inscribed_rectangle(points: np.ndarray, widths: int = 200) -> tuple[float, float, float] | None:
+    """The largest rectangle ``[-back, front] x [-w, w]`` inside the convex hull of the floor
+    contacts ``points`` (k, 2) about the foot's joint, as (front, back, w); None if the hull
+    does not surround the joint.  The hull's chord along x shrinks towards its edges, so a
+    rectangle of half-width ``w`` fits between the chords at ``y = -w`` and ``y = w``."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = points[ConvexHull(points).vertices]
+    except QhullError:
+        return None
+    edges = np.stack([hull, np.roll(hull, -1, axis=0)], axis=1)  # (k, 2 ends, 2)
+
+    def chord(y: float) -> tuple[float, float]:
+        (x0, y0), (x1, y1) = edges[:, 0].T, edges[:, 1].T
+        crosses = (np.minimum(y0, y1) <= y) & (y <= np.maximum(y0, y1)) & (y0 != y1)
+        x = x0[crosses] + (y - y0[crosses]) * (x1[crosses] - x0[crosses]) / (y1[crosses] - y0[crosses])
+        return (x.min(), x.max()) if len(x) else (np.inf, -np.inf)
+
+    best, widest = None, min(hull[:, 1].max(), -hull[:, 1].min())
+    corners = np.abs(hull[:, 1])  # a corner's width is often the best: try each
+    for w in np.union1d(np.linspace(0.0, widest, widths + 1)[1:-1], corners[(corners > 0) & (corners <= widest)]):
+        (a0, b0), (a1, b1) = chord(-w), chord(w)
+        back, front = -max(a0, a1), min(b0, b1)
+        if back > 0 and front > 0 and (best is None or (front + back) * w > (best[0] + best[1]) * best[2]):
+            best = (float(front), float(back), float(w))
+    return best
+
+
+def _add_sole_frame(model: pin.Model, side: str, joint: int, placement: pin.SE3) -> str:
+    """Add the derived sole frame ``{side}_sole`` on ``joint`` to ``model``; its name."""
+    name = f"{side}_sole"
+    if model.existFrame(name):
+        raise Error(f"the model has a frame {name!r} already: name the soles in 'feet'")
+    parent = model.getFrameId(model.names[joint])
+    model.addFrame(pin.Frame(name, joint, parent, placement, pin.FrameType.OP_FRAME))
+    return name
 
 
 def joint_axis(model: pin.Model, jid: int, robot: str = "") -> np.ndarray:
@@ -243,9 +342,17 @@ class Robot:
         self.description = desc
         self._visual: pin.GeometryModel | None = None  # visual_model(), loaded on first use
         self.name: str = desc["name"]
-        full, q_full_ref = _load_full_model(desc)
+        derive_feet = "feet" not in desc or "sole" not in desc
+        full, q_full_ref, collision = _load_full_model(desc, pin.GeometryType.COLLISION if derive_feet else None)
         if full.joints[1].shortname() != "JointModelFreeFlyer":
             raise Error(f"robot {self.name!r} has no floating base (free-flyer root joint)")
+        feet, sole = desc.get("feet"), desc.get("sole")
+        if derive_feet:
+            frames, derived = derive_soles(full, collision, self.name)
+            if feet is None:
+                feet = {side: _add_sole_frame(full, side, *frames[side]) for side in frames}
+            sole = sole or dict(zip(("front", "back", "half_width"), derived))
+        named_posture = q_full_ref is not None
         if q_full_ref is None:
             q_full_ref = pin.neutral(full)
         locked = _locked_joint_ids(full, desc)
@@ -267,13 +374,15 @@ class Robot:
         self.v_max = np.array(self.model.velocityLimit[6:])
         self.tau_max = np.array(self.model.effortLimit[6:])
         self.mass = float(pin.computeTotalMass(self.model))
-        self.foot_frames = {side: self._frame_id(desc["feet"][side]) for side in ("left", "right")}
+        self.foot_frames = {side: self._frame_id(feet[side]) for side in ("left", "right")}
         self.pelvis_frame = self._frame_id(desc["pelvis"])
-        self.sole = Sole(**desc["sole"])
+        self.sole = Sole(**sole)
         # longest step (m) the description vouches for; beyond it the stance may still be
         # kinematically possible but walking is not (legs nearly straight)
         self.max_step_length = float(desc.get("max_step_length", np.inf))
         self.mirror_perm, self.mirror_sign = self._derive_mirror_map()
+        if not named_posture:
+            self.q_ref = self._bent_knee_posture(desc.get("pelvis_height"))
         self.inertia_asymmetry = self._symmetrize_inertias() if symmetrize else 0.0
 
     # ------------------------------------------------------------------ set-up helpers
@@ -288,6 +397,33 @@ class Robot:
         for jid in range(2, self.model.njoints):
             name = self.model.names[jid]
             q[self.model.idx_qs[jid]] = q_full[full.idx_qs[full.getJointId(name)]]
+        return q
+
+    def _bent_knee_posture(self, pelvis_height: float | None) -> np.ndarray:
+        """A standing posture for a robot whose description names none: the soles flat on the
+        floor where they are at the neutral configuration, the pelvis ``pelvis_height`` (m)
+        above them -- by default :data:`PELVIS_DROP` lower than with straight legs -- and the
+        legs bent to reach (:func:`~cocomopl.kinematics.place_legs`)."""
+        from cocomopl.kinematics import IK_REACHED, leg_joints, place_legs
+
+        q = pin.neutral(self.model)
+        soles = {side: self.frame_placement(q, frame) for side, frame in self.foot_frames.items()}
+        floor = np.mean([sole.translation[2] for sole in soles.values()])
+        straight = q[2] - floor
+        height = straight * (1.0 - PELVIS_DROP) if pelvis_height is None else float(pelvis_height)
+        if not 0.0 < height <= straight:
+            raise Error(f"robot {self.name!r}: pelvis_height {height:g} m is not within (0, {straight:.3f}] m, "
+                        "the pelvis height with straight legs")
+        targets = {side: pin.SE3(sole.rotation, sole.translation - [0.0, 0.0, floor]) for side, sole in soles.items()}
+        q[2] = height
+        for roles in self.leg_roles().values():  # bent a little first: straight legs are singular
+            q[7 + np.array([roles["hip_pitch"], roles["knee"], roles["ankle_pitch"]])] = [-0.2, 0.4, -0.2]
+        q = place_legs(self, q, targets, legs=leg_joints(self), height_weight=1e3)
+        error = max(np.linalg.norm(pin.log6(targets[side].actInv(self.frame_placement(q, frame))).vector)
+                    for side, frame in self.foot_frames.items())
+        if error > IK_REACHED:
+            raise Error(f"robot {self.name!r}: the legs cannot stand with the pelvis {height:.3f} m above the soles "
+                        f"(sole error {error * 1000:.1f} mm); give a reference_posture or another pelvis_height")
         return q
 
     def _derive_mirror_map(self) -> tuple[np.ndarray, np.ndarray]:
@@ -354,7 +490,7 @@ class Robot:
         Loaded on first use (reading the meshes takes about a second) and shared by later
         calls: do not modify it."""
         if self._visual is None:
-            full, q_full_ref, visual = _load_full_model(self.description, visuals=True)
+            full, q_full_ref, visual = _load_full_model(self.description, pin.GeometryType.VISUAL)
             if q_full_ref is None:
                 q_full_ref = pin.neutral(full)
             locked = _locked_joint_ids(full, self.description)
