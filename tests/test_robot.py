@@ -205,7 +205,7 @@ def test_placements_a_few_micrometres_apart_are_made_mirror_images():
     pair mirrors to round-off, each joint moved halfway."""
     import example_robot_data
 
-    from cocomopl.robot.description import mirror_partners, symmetrize_placements, joint_axis
+    from cocomopl.robot.description import joint_axis, mirror_partners, symmetrize_placements
 
     model = example_robot_data.load("g1").model
     partner = mirror_partners(model, np.array([joint_axis(model, j) for j in range(2, model.njoints)]), "g1")
