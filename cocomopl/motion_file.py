@@ -470,6 +470,9 @@ def write_motions(path: str | Path, motions: dict[str, Motion], attrs: dict, *, 
         f.attrs["format_version"] = FORMAT_VERSION
         for key, value in attrs.items():
             f.attrs[key] = value if isinstance(value, str) else json.dumps(value)
+        described = _robot_description(motions.values())
+        if described is not None:
+            f.attrs["robot_description"] = described
         group = f.create_group("motions")
         for name, motion in motions.items():
             write_motion_group(group.create_group(name), motion, None if signals is None else signals.get(name))
@@ -512,16 +515,44 @@ def file_attrs(f: h5py.File) -> dict:
     return out
 
 
-def load_robot(name: str):
-    """The robot a file names, loaded once per process; an :class:`Error` if it cannot be."""
+def _robot_description(motions) -> str | None:
+    """The JSON description of the robot of ``motions``, if one robot of theirs was built in
+    this process and is not a bundled robot as bundled (that one a file names enough)."""
+    from cocomopl.robot.description import available_robots, built_description, read_description
+
+    names = {motion.robot for motion in motions}
+    described = built_description(names.pop()) if len(names) == 1 else None
+    if described is None or (described["name"] in available_robots() and described == read_description(described["name"])):
+        return None
+    return json.dumps(described, sort_keys=True)
+
+
+def load_robot(name: str, description: str | None = None):
+    """The robot a file names, loaded once per process, from the description the file
+    records if it does (a robot of the user's own), else by its bundled name; an
+    :class:`Error` if it cannot be."""
     from cocomopl.robot import Robot
 
-    if name not in _ROBOTS:
-        _ROBOTS[name] = Robot(name)
-    return _ROBOTS[name]
+    if description is None:
+        if name not in _ROBOTS:
+            _ROBOTS[name] = Robot(name)
+        return _ROBOTS[name]
+    if description not in _ROBOTS:
+        try:
+            recorded = json.loads(description)
+        except json.JSONDecodeError as exc:
+            raise Error(f"its robot description is not JSON ({exc})") from None
+        _ROBOTS[description] = Robot(recorded)
+    _ROBOTS[name] = _ROBOTS[description]  # what the file's readers load by name next
+    return _ROBOTS[description]
 
 
 _ROBOTS: dict = {}
+
+
+def _recorded_description(f: h5py.File) -> str | None:
+    value = f.attrs.get("robot_description")
+    return value.decode(errors="replace") if isinstance(value, bytes) else value
 
 
 def _file_robot(f: h5py.File, names: list[str]) -> str:
@@ -560,7 +591,7 @@ def read_motions(path: str | Path, *, finite: bool = True, dataset: bool = False
             names = list(f["motions"])
             if not names:
                 raise Error("it holds no motions")
-            robot = robot or load_robot(_file_robot(f, names))
+            robot = robot or load_robot(_file_robot(f, names), _recorded_description(f))
             motions, found = {}, {}
             for name in names:
                 try:
@@ -592,7 +623,7 @@ def read_motion(path: str | Path, name: str | None = None) -> Motion:
         if name not in names:
             raise Error(f"{path} has no motion {name!r}; it has: {', '.join(names)}")
         try:
-            robot = load_robot(_file_robot(f, [name]))
+            robot = load_robot(_file_robot(f, [name]), _recorded_description(f))
             return read_motion_group(f["motions"][name], robot)
         except Error as exc:
             raise Error(f"{path}: motion {name}: {exc}") from None

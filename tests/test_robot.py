@@ -259,3 +259,35 @@ def test_a_pelvis_height_above_straight_legs_is_one_line(tmp_path):
                                                      "pelvis_height": 2.0}))
     with pytest.raises(Error, match=r"pelvis_height 2 m is not within \(0, 0\.792\] m"):
         Robot(str(tmp_path / "tall.json"))
+
+
+def test_a_file_made_for_a_robot_of_ones_own_reads_back_without_its_description(tmp_path):
+    """A motion file records the description of a robot that is not bundled, so any reader
+    rebuilds the robot from the file alone; a bundled robot's files name it only."""
+    import json
+    import subprocess
+    import sys
+
+    from cocomopl.motion_file import write_motions
+
+    from conftest import synthetic
+
+    description = tmp_path / "mybot.json"
+    description.write_text(json.dumps({"name": "mybot", "example_robot_data": "g1", "pelvis": "pelvis"}))
+    mybot = Robot(str(description))
+    write_motions(tmp_path / "mybot.h5", {"stand": synthetic(mybot, [0.0, 0.1])}, {"robot": "mybot"})
+    description.unlink()
+    read_back = ("from cocomopl.motion_file import read_motions; import sys; m, a = read_motions(sys.argv[1]); "
+                 "print(m['stand'].robot, len(m['stand'].joint_names))")
+    result = subprocess.run([sys.executable, "-c", read_back, str(tmp_path / "mybot.h5")], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["mybot", "29"]
+
+    talos = Robot("talos")
+    write_motions(tmp_path / "talos.h5", {"stand": synthetic(talos, [0.0, 0.1])}, {"robot": "talos"})
+    import h5py
+
+    with h5py.File(tmp_path / "talos.h5") as f:
+        assert "robot_description" not in f.attrs
+    with h5py.File(tmp_path / "mybot.h5") as f:
+        assert json.loads(f.attrs["robot_description"])["example_robot_data"] == "g1"

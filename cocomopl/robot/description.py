@@ -53,8 +53,11 @@ def available_robots() -> list[str]:
     return sorted(p.stem for p in DESCRIPTIONS_DIR.glob("*.json"))
 
 
-def read_description(name_or_path: str) -> dict:
-    """Read a robot description by bundled name (``talos``, in any case) or JSON path."""
+def read_description(name_or_path: str | dict) -> dict:
+    """Read a robot description by bundled name (``talos``, in any case) or JSON path, or
+    check one given as a dict (as files record it: :attr:`Robot.description`)."""
+    if isinstance(name_or_path, dict):
+        return _checked(dict(name_or_path), "recorded")
     path = Path(name_or_path)
     if path.suffix != ".json":
         path = DESCRIPTIONS_DIR / f"{name_or_path.lower()}.json"
@@ -69,12 +72,19 @@ def read_description(name_or_path: str) -> dict:
         raise Error(f"robot description not found: {path}") from None
     except (OSError, json.JSONDecodeError) as exc:
         raise Error(f"cannot read robot description {path}: {exc}") from None
-    for key in ("name", "pelvis"):
-        if key not in desc:
-            raise Error(f"robot description {path} lacks the key {key!r}")
+    desc = _checked(desc, str(path))
     for key in ("urdf", "srdf"):  # relative to the description's folder, not the working one
         if key in desc and not Path(desc[key]).is_absolute():
             desc[key] = str((path.parent / desc[key]).resolve())
+    return desc
+
+
+def _checked(desc, where: str) -> dict:
+    if not isinstance(desc, dict):
+        raise Error(f"robot description {where} is not a JSON object")
+    for key in ("name", "pelvis"):
+        if key not in desc:
+            raise Error(f"robot description {where} lacks the key {key!r}")
     return desc
 
 
@@ -231,6 +241,15 @@ def _add_sole_frame(model: pin.Model, side: str, joint: int, placement: pin.SE3)
     return name
 
 
+_BUILT: dict[str, dict] = {}  # the description of each robot built in this process, by name
+
+
+def built_description(name: str) -> dict | None:
+    """The description of the robot named ``name`` last built in this process (None if none
+    was): what the files written for it record, so that they are read back without it."""
+    return _BUILT.get(name)
+
+
 def joint_axis(model: pin.Model, jid: int, robot: str = "") -> np.ndarray:
     """The unit axis of the revolute joint ``jid`` in its own frame.
 
@@ -337,9 +356,10 @@ class Robot:
         the model exactly symmetric, m (0 when the description turns ``symmetrize`` off).
     """
 
-    def __init__(self, name_or_path: str = DEFAULT_ROBOT):
+    def __init__(self, name_or_path: str | dict = DEFAULT_ROBOT):
         desc = read_description(name_or_path)
         self.description = desc
+        _BUILT[desc["name"]] = desc
         self._visual: pin.GeometryModel | None = None  # visual_model(), loaded on first use
         self.name: str = desc["name"]
         derive_feet = "feet" not in desc or "sole" not in desc
