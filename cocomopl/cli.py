@@ -152,6 +152,14 @@ def cmd_export(args):
     return export_file(args.file, args.format, args.out, motion_name=args.motion, force=args.force, robot=args.robot)
 
 
+def cmd_robot_check(args):
+    from cocomopl.jobs import check_robot
+
+    if args.png is not None:
+        replacing(args, args.png, inputs=[args.robot if args.robot.endswith(".json") else None])
+    return check_robot(args.robot, args.png)
+
+
 def cmd_export_model(args):
     from cocomopl.export.mjcf import mesh_folder
     from cocomopl.jobs import export_model_file
@@ -381,6 +389,14 @@ def _tool_parsers(sub) -> None:
     export_model.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME|FILE.json",
                               help="bundled robot name or robot description file (default: %(default)s)")
     export_model.set_defaults(func=cmd_export_model)
+
+    robot = sub.add_parser("robot", help="robot descriptions (docs/robots.md)").add_subparsers(
+        dest="action", required=True, parser_class=Parser)
+    check = robot.add_parser("check", help="print what is derived from a robot's description: joint groups, mirror "
+                                           "pairs, soles, posture, symmetrisation")
+    check.add_argument("robot", metavar="NAME|FILE.json", help="bundled robot name or robot description file")
+    check.add_argument("--png", metavar="FILE.png", help="also draw the posture and its soles")
+    check.set_defaults(func=cmd_robot_check)
 
     plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
     plot.add_argument("file", metavar="MOTION.h5", help="motion or dataset HDF5 file")

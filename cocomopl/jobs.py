@@ -46,6 +46,7 @@ from cocomopl.results import (
     ModelInfo,
     PlotReport,
     RefineReport,
+    RobotCheck,
     SimulateReport,
     StepRow,
     TrainReport,
@@ -572,6 +573,43 @@ def export_file(path: str | Path, fmt: str, prefix: str | Path, *, motion_name: 
     files, report = export_motion(load_robot(robot), motion, fmt, prefix=prefix, force=force)
     unsafe = report.pop("unsafe")
     return ExportReport(files=[str(f) for f in files], format=fmt, unsafe=unsafe, forced=bool(unsafe), gate=report)
+
+
+def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
+    """What cocomopl derives from the description of ``robot`` (a bundled name or a
+    description file): joint groups, mirror pairs, soles, posture and the symmetrisation;
+    with ``png``, a picture of the posture and its soles."""
+    import pinocchio as pin
+
+    from cocomopl.robot import Robot
+
+    if png is not None:
+        check_output(png)
+    r = Robot(robot)
+    names = r.joint_names
+    neutral = pin.neutral(r.model)
+    straight = neutral[2] - r.frame_placement(neutral, r.foot_frames["left"]).translation[2]
+    height = r.q_ref[2] - r.frame_placement(r.q_ref, r.foot_frames["left"]).translation[2]
+    result = RobotCheck(
+        robot=r.name,
+        mass_kg=r.mass,
+        actuated_joints=r.nu,
+        groups={group: [names[i] for i in idx] for group, idx in r.joint_groups().items()},
+        mirror_pairs=[[names[i], names[j]] for i, j in enumerate(r.mirror_perm) if i < j],
+        soles={"source": "given" if "feet" in r.description and "sole" in r.description else "derived",
+               **{side: r.model.frames[frame].name for side, frame in r.foot_frames.items()},
+               "front_m": r.sole.front, "back_m": r.sole.back, "half_width_m": r.sole.half_width},
+        posture={"source": r.description.get("reference_posture", "derived"), "pelvis_height_m": float(height),
+                 "straight_pelvis_height_m": float(straight),
+                 "knees_rad": [float(r.q_ref[7 + roles["knee"]]) for roles in r.leg_roles().values()]},
+        placement_symmetrised_m=r.placement_asymmetry,
+        inertia_symmetrised_m=r.inertia_asymmetry,
+    )
+    if png is not None:
+        from cocomopl.analysis.plots import plot_robot_posture
+
+        result.png = str(plot_robot_posture(r, Path(png)))
+    return result
 
 
 def export_model_file(robot: str, fmt: str, out: str | Path) -> ModelExport:

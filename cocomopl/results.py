@@ -586,6 +586,38 @@ class ModelExport(Result):
 
 
 @dataclass
+class RobotCheck(Result):
+    """``robot check``: what cocomopl derives from a robot's description (``docs/robots.md``)."""
+
+    robot: str
+    mass_kg: float
+    actuated_joints: int
+    groups: dict[str, list[str]]
+    mirror_pairs: list[list[str]]
+    soles: dict
+    posture: dict
+    placement_symmetrised_m: float
+    inertia_symmetrised_m: float
+    png: str | None = field(default=None, metadata=OPTIONAL)
+
+    def to_table(self) -> str:
+        s, p = self.soles, self.posture
+        lines = [f"robot {self.robot}: {self.mass_kg:.2f} kg, {self.actuated_joints} actuated joints"]
+        lines += [f"  {group:6s} {', '.join(names) or '-'}" for group, names in self.groups.items()]
+        lines.append(f"mirror pairs: {', '.join(f'{a}/{b}' for a, b in self.mirror_pairs)}")
+        lines.append(f"soles ({s['source']}): {s['left']} and {s['right']}, front {s['front_m'] * 1000:.1f} mm, "
+                     f"back {s['back_m'] * 1000:.1f} mm, half width {s['half_width_m'] * 1000:.1f} mm")
+        lines.append(f"posture ({p['source']}): pelvis {p['pelvis_height_m'] * 1000:.0f} mm above the soles "
+                     f"({p['straight_pelvis_height_m'] * 1000:.0f} mm with straight legs), knees "
+                     + ", ".join(f"{k:.2f}" for k in p['knees_rad']) + " rad")
+        lines.append(f"symmetrised: joint placements by up to {self.placement_symmetrised_m * 1e6:.1f} um, "
+                     f"link centres of mass by up to {self.inertia_symmetrised_m * 1e3:.2f} mm")
+        if self.png:
+            lines.append(f"wrote {self.png}")
+        return "\n".join(lines)
+
+
+@dataclass
 class PlotReport(Result):
     """``plot``: the PNGs written."""
 

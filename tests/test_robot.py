@@ -291,3 +291,22 @@ def test_a_file_made_for_a_robot_of_ones_own_reads_back_without_its_description(
         assert "robot_description" not in f.attrs
     with h5py.File(tmp_path / "mybot.h5") as f:
         assert json.loads(f.attrs["robot_description"])["example_robot_data"] == "g1"
+
+
+def test_robot_check_prints_what_is_derived_and_draws_the_posture(tmp_path):
+    import json
+
+    from conftest import assert_one_line_error, run_cli
+
+    result = run_cli("robot", "check", "g1", "--png", str(tmp_path / "g1.png"), "--json")
+    assert result.returncode == 0, result.stderr
+    check = json.loads(result.stdout)
+    assert check["robot"] == "g1" and check["actuated_joints"] == 29
+    assert check["groups"]["torso"] == ["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint"]
+    assert ["left_knee_joint", "right_knee_joint"] in check["mirror_pairs"]
+    assert check["soles"]["source"] == "derived" and check["soles"]["half_width_m"] == pytest.approx(0.025)
+    assert check["posture"]["pelvis_height_m"] == pytest.approx(0.94 * check["posture"]["straight_pelvis_height_m"])
+    assert (tmp_path / "g1.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    (tmp_path / "bad.json").write_text('{"name": "bad", "example_robot_data": "g1"}')
+    assert_one_line_error(run_cli("robot", "check", str(tmp_path / "bad.json")), "lacks the key 'pelvis'")
+    assert_one_line_error(run_cli("robot", "check", "no_such_robot"), "unknown robot 'no_such_robot'")

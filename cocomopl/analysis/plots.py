@@ -231,3 +231,32 @@ def plot_model_selection(rows: list[dict], path: Path) -> Path:
     legend_outside(axes[0])
     legend_outside(axes[1], fontsize=7)
     return save_figure(fig, Path(path))
+
+
+def plot_robot_posture(robot: Robot, path: Path) -> Path:
+    """The robot standing in its reference posture, from the side and from the front: its
+    joints joined along the kinematic tree (legs by side colour), its soles on the floor."""
+    import pinocchio as pin
+
+    plt = pyplot()
+    model, data = robot.model, robot.model.createData()
+    pin.forwardKinematics(model, data, robot.q_ref)
+    origin = np.array([data.oMi[j].translation for j in range(model.njoints)])
+    legs = {side: {j + 2 for j in robot.leg_chain(side)} for side in SIDES}
+    soles = [robot.frame_placement(robot.q_ref, robot.foot_frames[side]) for side in SIDES]
+    fig, axes = plt.subplots(1, 2, figsize=(9, 6), sharey=True)
+    for ax, (h, label) in zip(axes, ((0, "x (m), from the side"), (1, "y (m), from the front"))):
+        for j in range(2, model.njoints):
+            parent = model.parents[j]
+            colour = next((SIDE_COLOURS[s] for s in SIDES if j in legs[s]), "0.3")
+            ax.plot(origin[[parent, j], h], origin[[parent, j], 2], "-o", color=colour, ms=3, lw=1.5)
+        for side, sole in zip(SIDES, soles):
+            corners = np.column_stack([robot.sole.corners(), np.zeros(4)]) @ sole.rotation.T + sole.translation
+            ring = np.vstack([corners, corners[:1]])
+            ax.plot(ring[:, h], ring[:, 2], color=SIDE_COLOURS[side], lw=3)
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_xlabel(label)
+        ax.set_aspect("equal")
+    axes[0].set_ylabel("z (m)")
+    fig.suptitle(f"{robot.name}: reference posture and soles")
+    return save_figure(fig, path)
