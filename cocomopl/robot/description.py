@@ -368,6 +368,8 @@ class Robot:
             raise Error(f"robot {self.name!r} has no floating base (free-flyer root joint)")
         feet, sole = desc.get("feet"), desc.get("sole")
         if derive_feet:
+            if len(collision.geometryObjects) == 0:  # a URDF without collision geometry: its meshes
+                collision = _load_full_model(desc, pin.GeometryType.VISUAL)[2]
             frames, derived = derive_soles(full, collision, self.name)
             if feet is None:
                 feet = {side: _add_sole_frame(full, side, *frames[side]) for side in frames}
@@ -436,8 +438,13 @@ class Robot:
                         "the pelvis height with straight legs")
         targets = {side: pin.SE3(sole.rotation, sole.translation - [0.0, 0.0, floor]) for side, sole in soles.items()}
         q[2] = height
+        data = self.model.createData()
+        pin.forwardKinematics(self.model, data, q)
         for roles in self.leg_roles().values():  # bent a little first: straight legs are singular
-            q[7 + np.array([roles["hip_pitch"], roles["knee"], roles["ankle_pitch"]])] = [-0.2, 0.4, -0.2]
+            pitch = np.array([roles["hip_pitch"], roles["knee"], roles["ankle_pitch"]])
+            # knee forward for a joint turning about +y (TALOS, the G1), so the other way about -y
+            sign = np.sign([(data.oMi[int(i) + 2].rotation @ self.joint_axes[i])[1] for i in pitch])
+            q[7 + pitch] = sign * [-0.2, 0.4, -0.2]
         q = place_legs(self, q, targets, legs=leg_joints(self), height_weight=1e3)
         error = max(np.linalg.norm(pin.log6(targets[side].actInv(self.frame_placement(q, frame))).vector)
                     for side, frame in self.foot_frames.items())
