@@ -75,7 +75,8 @@ def generate_dataset(
 ) -> DatasetSummary:
     """Solve the training OCPs for step ``lengths`` (m; or footsteps) and write the dataset to ``out``.
 
-    The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults, with
+    The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults scaled to the
+    robot (:func:`~cocomopl.ocp.settings.robot_settings`; TALOS's are the defaults), with
     each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
     ``min_knee_flexion`` (rad) that is not None instead; ``record`` (how the set was
     designed) is added to the dataset's attributes; ``continuation=False`` solves each
@@ -85,16 +86,17 @@ def generate_dataset(
     :func:`cocomopl.dataset.generate.generate` for the summary returned.
     """
     from cocomopl.dataset.generate import generate, reusable_steps
-    from cocomopl.ocp.settings import OCPSettings
+    from cocomopl.ocp.settings import robot_settings
     from cocomopl.robot import Robot
 
+    description = Robot(robot)
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
                  "min_knee_flexion": min_knee_flexion}
-    settings = replace(OCPSettings(), **{k: v for k, v in overrides.items() if v is not None})
+    defaults = robot_settings(description.mass, description.leg_length, description.sole.half_width)
+    settings = replace(defaults, **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input
     known = {}
     if reuse:
-        description = Robot(robot)  # loaded once for every reused file
         for path in reuse:
             known |= reusable_steps(path, settings, description)
         record = {**(record or {}), "reused_from": [file_identity(path) for path in reuse]}
@@ -579,7 +581,6 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
     """What cocomopl derives from the description of ``robot`` (a bundled name or a
     description file): joint groups, mirror pairs, soles, posture and the symmetrisation;
     with ``png``, a picture of the posture and its soles."""
-    import pinocchio as pin
 
     from cocomopl.robot import Robot
 
@@ -587,8 +588,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         check_output(png)
     r = Robot(robot)
     names = r.joint_names
-    neutral = pin.neutral(r.model)
-    straight = neutral[2] - r.frame_placement(neutral, r.foot_frames["left"]).translation[2]
+    straight = r.leg_length
     height = r.q_ref[2] - r.frame_placement(r.q_ref, r.foot_frames["left"]).translation[2]
     result = RobotCheck(
         robot=r.name,

@@ -331,3 +331,15 @@ def test_alexander_loads_from_a_description_written_from_the_docs(tmp_path):
     tau = pin.rnea(robot.model, d, q, v, a).copy()
     tau_m = pin.rnea(robot.model, d, mirror_configuration(robot, q), mirror_velocity(robot, v), mirror_velocity(robot, a))
     assert np.allclose(mirror_velocity(robot, tau), tau_m, atol=1e-9)
+
+
+def test_ocp_settings_scale_with_the_robot_and_talos_keeps_the_defaults(robot):
+    from cocomopl.ocp.settings import OCPSettings, robot_settings
+
+    assert robot_settings(robot.mass, robot.leg_length, robot.sole.half_width) == OCPSettings()
+    g1 = Robot("g1")
+    scaled = robot_settings(g1.mass, g1.leg_length, g1.sole.half_width)
+    # a 25 mm half-wide sole keeps 18 mm of it for the ZMP, as TALOS keeps 47 of its 67 mm
+    assert scaled.zmp_margin == pytest.approx(0.02 * 0.372) and g1.sole.half_width - scaled.zmp_margin > 0.017
+    assert scaled.clearance == pytest.approx(0.05 * 0.731)
+    assert scaled.w_load_transfer * g1.mass**2 == pytest.approx(OCPSettings().w_load_transfer * robot.mass**2, rel=2e-3)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 from cocomopl.errors import Error
 
@@ -12,6 +12,13 @@ from cocomopl.errors import Error
 # fewest iterations (docs/results.md#refinement)
 WARM_STARTS = ("generated", "nearest", "interpolated")
 DEFAULT_WARM_START = "interpolated"
+
+
+# The robot the defaults below were tuned on (TALOS): its mass (kg), its pelvis height above the
+# soles with straight legs (m) and its soles' half width (m).  robot_settings scales by them.
+REFERENCE_MASS_KG = 90.27
+REFERENCE_LEG_LENGTH_M = 1.083
+REFERENCE_SOLE_HALF_WIDTH_M = 0.0672
 
 
 @dataclass(frozen=True)
@@ -93,3 +100,24 @@ class OCPSettings:
         saved = {"w_upper_posture": saved.get("w_posture", cls.w_posture), **saved}
         values = {k: tuple(v) if isinstance(v, list) else v for k, v in saved.items()}
         return cls(**values)
+
+
+def robot_settings(mass: float, leg_length: float, sole_half_width: float) -> OCPSettings:
+    """The default settings for a robot of ``mass`` (kg), ``leg_length`` (m, the pelvis height
+    above the soles with straight legs) and ``sole_half_width`` (m), scaled from the robot they
+    were tuned on (``REFERENCE_*``; docs/robots.md):
+
+    * the ZMP margin with the soles' half width (TALOS: 20 mm of 67 mm);
+    * the swing's clearance and the gaps between the soles with the leg length;
+    * the load-transfer weight (N^-2) with the inverse square of the weight, so that its cost
+      is the same share of a step's.
+
+    Each ratio is rounded to 0.1 %, so that the reference robot gets the defaults exactly.
+    """
+    width = round(sole_half_width / REFERENCE_SOLE_HALF_WIDTH_M, 3)
+    length = round(leg_length / REFERENCE_LEG_LENGTH_M, 3)
+    weight = round(mass / REFERENCE_MASS_KG, 3)
+    d = OCPSettings()
+    return replace(d, zmp_margin=d.zmp_margin * width, clearance=d.clearance * length,
+                   swing_lateral_gap=d.swing_lateral_gap * length, sole_gap=d.sole_gap * length,
+                   w_load_transfer=d.w_load_transfer / weight**2)

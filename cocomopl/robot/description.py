@@ -421,6 +421,13 @@ class Robot:
             q[self.model.idx_qs[jid]] = q_full[full.idx_qs[full.getJointId(name)]]
         return q
 
+    @functools.cached_property
+    def leg_length(self) -> float:
+        """The pelvis height above the soles with straight legs (the neutral configuration), m."""
+        neutral = pin.neutral(self.model)
+        soles = [self.frame_placement(neutral, frame).translation[2] for frame in self.foot_frames.values()]
+        return float(neutral[2] - np.mean(soles))
+
     def _bent_knee_posture(self, pelvis_height: float | None) -> np.ndarray:
         """A standing posture for a robot whose description names none: the soles flat on the
         floor where they are at the neutral configuration, the pelvis ``pelvis_height`` (m)
@@ -431,7 +438,7 @@ class Robot:
         q = pin.neutral(self.model)
         soles = {side: self.frame_placement(q, frame) for side, frame in self.foot_frames.items()}
         floor = np.mean([sole.translation[2] for sole in soles.values()])
-        straight = q[2] - floor
+        straight = self.leg_length
         height = straight * (1.0 - PELVIS_DROP) if pelvis_height is None else float(pelvis_height)
         if not 0.0 < height <= straight:
             raise Error(f"robot {self.name!r}: pelvis_height {height:g} m is not within (0, {straight:.3f}] m, "
