@@ -152,6 +152,13 @@ def cmd_export(args):
     return export_file(args.file, args.format, args.out, motion_name=args.motion, force=args.force, robot=args.robot)
 
 
+def cmd_robot_init(args):
+    from cocomopl.jobs import init_robot
+
+    replacing(args, args.out, inputs=[args.source])
+    return init_robot(args.source, args.out)
+
+
 def cmd_robot_check(args):
     from cocomopl.jobs import check_robot
 
@@ -392,6 +399,10 @@ def _tool_parsers(sub) -> None:
 
     robot = sub.add_parser("robot", help="robot descriptions (docs/robots.md)").add_subparsers(
         dest="action", required=True, parser_class=Parser)
+    init = robot.add_parser("init", help="write a starting description of a robot from example-robot-data or a URDF")
+    init.add_argument("source", metavar="NAME|FILE.urdf", help="an example-robot-data robot name or a URDF file")
+    init.add_argument("--out", required=True, metavar="FILE.json", help="the description to write")
+    init.set_defaults(func=cmd_robot_init)
     check = robot.add_parser("check", help="print what is derived from a robot's description: joint groups, mirror "
                                            "pairs, soles, posture, symmetrisation")
     check.add_argument("robot", metavar="NAME|FILE.json", help="bundled robot name or robot description file")

@@ -23,6 +23,7 @@ import numpy as np
 from cocomopl.data import dataset_path, model_path
 from cocomopl.errors import Error, require_extra
 from cocomopl.motion_file import (
+    atomic_path,
     check_output,
     is_dataset,
     load_robot,
@@ -575,6 +576,34 @@ def export_file(path: str | Path, fmt: str, prefix: str | Path, *, motion_name: 
     files, report = export_motion(load_robot(robot), motion, fmt, prefix=prefix, force=force)
     unsafe = report.pop("unsafe")
     return ExportReport(files=[str(f) for f in files], format=fmt, unsafe=unsafe, forced=bool(unsafe), gate=report)
+
+
+def init_robot(source: str, out: str | Path) -> RobotCheck:
+    """Write a starting description of the robot ``source`` (an ``example-robot-data`` name or
+    a URDF path) to ``out``: its name, where its model comes from and its pelvis (the body
+    of its floating base), the rest derived (``docs/robots.md``), after checking that it loads;
+    what is derived, as :func:`check_robot` gives it."""
+    import json
+
+    import pinocchio as pin
+
+    from cocomopl.robot import Robot
+    from cocomopl.robot.description import load_full_model
+
+    out = output_file(out, "robot.json", inputs=[source])
+    if source.endswith(".urdf"):
+        description = {"name": Path(source).stem, "urdf": str(Path(source).resolve())}
+    else:
+        description = {"name": source, "example_robot_data": source}
+    model = load_full_model(description)[0]
+    bodies = [f.name for f in model.frames if f.parentJoint == 1 and f.type == pin.FrameType.BODY]
+    if model.joints[1].shortname() != "JointModelFreeFlyer" or not bodies:
+        raise Error(f"{source} has no floating base with a body on it: not a legged humanoid cocomopl can walk")
+    description["pelvis"] = bodies[0]
+    Robot(description)  # refused here, before anything is written, if it does not load
+    with atomic_path(out, suffix=".json") as tmp:
+        tmp.write_text(json.dumps(description, indent=2) + "\n")
+    return check_robot(str(out))
 
 
 def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:

@@ -17,6 +17,11 @@ from cocomopl.robot import (
 )
 
 
+@pytest.fixture(scope="module")
+def g1() -> Robot:
+    return Robot("g1")
+
+
 def random_configuration(robot: Robot, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     q = robot.q_ref.copy()
@@ -219,10 +224,10 @@ def test_placements_a_few_micrometres_apart_are_made_mirror_images():
         assert np.allclose(P @ mirrored.rotation @ P, data.oMi[jid].rotation, atol=1e-12, rtol=0)
 
 
-def test_the_g1_stands_on_soles_derived_from_its_collision_spheres():
+def test_the_g1_stands_on_soles_derived_from_its_collision_spheres(g1):
     """The G1's description names no soles and no posture: its soles are found 35 mm under
     the ankle rolls (its four contact spheres' bottoms) and it stands on them, knees bent."""
-    robot = Robot("g1")
+    robot = g1
     assert (robot.sole.front, robot.sole.back, robot.sole.half_width) == pytest.approx((0.12, 0.05, 0.025), abs=1e-12)
     for side, frame in robot.foot_frames.items():
         sole = robot.model.frames[frame]
@@ -261,6 +266,7 @@ def test_a_pelvis_height_above_straight_legs_is_one_line(tmp_path):
         Robot(str(tmp_path / "tall.json"))
 
 
+@pytest.mark.slow  # runs the command line or a second process
 def test_a_file_made_for_a_robot_of_ones_own_reads_back_without_its_description(tmp_path):
     """A motion file records the description of a robot that is not bundled, so any reader
     rebuilds the robot from the file alone; a bundled robot's files name it only."""
@@ -293,6 +299,7 @@ def test_a_file_made_for_a_robot_of_ones_own_reads_back_without_its_description(
         assert json.loads(f.attrs["robot_description"])["example_robot_data"] == "g1"
 
 
+@pytest.mark.slow  # runs the command line or a second process
 def test_robot_check_prints_what_is_derived_and_draws_the_posture(tmp_path):
     import json
 
@@ -333,13 +340,29 @@ def test_alexander_loads_from_a_description_written_from_the_docs(tmp_path):
     assert np.allclose(mirror_velocity(robot, tau), tau_m, atol=1e-9)
 
 
-def test_ocp_settings_scale_with_the_robot_and_talos_keeps_the_defaults(robot):
+def test_ocp_settings_scale_with_the_robot_and_talos_keeps_the_defaults(robot, g1):
     from cocomopl.ocp.settings import OCPSettings, robot_settings
 
     assert robot_settings(robot.mass, robot.leg_length, robot.sole.half_width) == OCPSettings()
-    g1 = Robot("g1")
     scaled = robot_settings(g1.mass, g1.leg_length, g1.sole.half_width)
     # a 25 mm half-wide sole keeps 18 mm of it for the ZMP, as TALOS keeps 47 of its 67 mm
     assert scaled.zmp_margin == pytest.approx(0.02 * 0.372) and g1.sole.half_width - scaled.zmp_margin > 0.017
     assert scaled.clearance == pytest.approx(0.05 * 0.731)
     assert scaled.w_load_transfer * g1.mass**2 == pytest.approx(OCPSettings().w_load_transfer * robot.mass**2, rel=2e-3)
+
+
+@pytest.mark.slow  # runs the command line or a second process
+def test_robot_init_writes_a_description_that_loads_or_nothing(tmp_path):
+    import json
+
+    from conftest import assert_one_line_error, run_cli
+
+    result = run_cli("robot", "init", "alexander", "--out", str(tmp_path / "alexander.json"), "--json")
+    assert result.returncode == 0, result.stderr
+    assert json.loads((tmp_path / "alexander.json").read_text()) == {
+        "name": "alexander", "example_robot_data": "alexander", "pelvis": "PELVIS_LINK"}
+    assert json.loads(result.stdout)["soles"]["source"] == "derived"
+    # Bolt stands on point feet: refused, naming why, and nothing written
+    assert_one_line_error(run_cli("robot", "init", "bolt", "--out", str(tmp_path / "bolt.json")),
+                          "floor contacts do not surround")
+    assert not (tmp_path / "bolt.json").exists()

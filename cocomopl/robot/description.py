@@ -88,7 +88,7 @@ def _checked(desc, where: str) -> dict:
     return desc
 
 
-def _load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
+def load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
     """The unreduced model, the reference posture named by the description (or None) and,
     if ``geometry`` is given, the URDF's visual or collision geometry model (else None)."""
     if "example_robot_data" in desc:
@@ -363,13 +363,13 @@ class Robot:
         self._visual: pin.GeometryModel | None = None  # visual_model(), loaded on first use
         self.name: str = desc["name"]
         derive_feet = "feet" not in desc or "sole" not in desc
-        full, q_full_ref, collision = _load_full_model(desc, pin.GeometryType.COLLISION if derive_feet else None)
+        full, q_full_ref, collision = load_full_model(desc, pin.GeometryType.COLLISION if derive_feet else None)
         if full.joints[1].shortname() != "JointModelFreeFlyer":
             raise Error(f"robot {self.name!r} has no floating base (free-flyer root joint)")
         feet, sole = desc.get("feet"), desc.get("sole")
         if derive_feet:
             if len(collision.geometryObjects) == 0:  # a URDF without collision geometry: its meshes
-                collision = _load_full_model(desc, pin.GeometryType.VISUAL)[2]
+                collision = load_full_model(desc, pin.GeometryType.VISUAL)[2]
             frames, derived = derive_soles(full, collision, self.name)
             if feet is None:
                 feet = {side: _add_sole_frame(full, side, *frames[side]) for side in frames}
@@ -524,7 +524,7 @@ class Robot:
         Loaded on first use (reading the meshes takes about a second) and shared by later
         calls: do not modify it."""
         if self._visual is None:
-            full, q_full_ref, visual = _load_full_model(self.description, pin.GeometryType.VISUAL)
+            full, q_full_ref, visual = load_full_model(self.description, pin.GeometryType.VISUAL)
             if q_full_ref is None:
                 q_full_ref = pin.neutral(full)
             locked = _locked_joint_ids(full, self.description)
