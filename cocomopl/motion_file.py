@@ -516,15 +516,14 @@ def file_attrs(f: h5py.File) -> dict:
 
 
 def _robot_description(motions) -> str | None:
-    """The JSON description of the robot of ``motions``, if one robot of theirs was built in
-    this process and is not a bundled robot as bundled (that one a file names enough)."""
-    from cocomopl.robot.description import available_robots, built_description, read_description
+    """The JSON description of the robot of ``motions`` if it is not a bundled one (whose
+    name a file gives enough) and was built in this process."""
+    from cocomopl.robot.description import available_robots, built_description
 
     names = {motion.robot for motion in motions}
-    described = built_description(names.pop()) if len(names) == 1 else None
-    if described is None or (described["name"] in available_robots() and described == read_description(described["name"])):
-        return None
-    return json.dumps(described, sort_keys=True)
+    name = names.pop() if len(names) == 1 else None
+    described = None if name is None or name in available_robots() else built_description(name)
+    return None if described is None else json.dumps(described, sort_keys=True)
 
 
 def load_robot(name: str, description: str | None = None):
