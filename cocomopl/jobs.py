@@ -625,7 +625,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         actuated_joints=r.nu,
         groups={group: [names[i] for i in idx] for group, idx in r.joint_groups().items()},
         mirror_pairs=[[names[i], names[j]] for i, j in enumerate(r.mirror_perm) if i < j],
-        soles={"source": "given" if "feet" in r.description and "sole" in r.description else "derived",
+        soles={"source": "given" if "feet" in r.description else "derived",
                **{side: r.model.frames[frame].name for side, frame in r.foot_frames.items()},
                "front_m": r.sole.front, "back_m": r.sole.back, "half_width_m": r.sole.half_width},
         posture={"source": r.description.get("reference_posture", "derived"), "pelvis_height_m": float(height),

@@ -78,7 +78,7 @@ def test_unknown_robot(tmp_path):
 @pytest.mark.slow
 def test_missing_urdf(tmp_path):
     desc = tmp_path / "bot.json"
-    desc.write_text('{"name": "bot", "urdf": "nowhere.urdf", "feet": {}, "sole": {}, "pelvis": "base"}')
+    desc.write_text('{"name": "bot", "urdf": "nowhere.urdf", "pelvis": "base"}')
     result = run_cli("dataset", "generate", "--robot", str(desc), "--out", str(tmp_path / "d.h5"))
     assert_one_line_error(result, "URDF not found")
     assert not (tmp_path / "d.h5").exists()

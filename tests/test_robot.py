@@ -1,5 +1,6 @@
 """The robot description, the mirror map, and the dynamic symmetry it relies on."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -52,32 +53,37 @@ def test_mirror_is_an_exact_involution(robot):
     assert np.array_equal(mirror_wrenches(mirror_wrenches(wrenches)), wrenches)
 
 
-@pytest.mark.parametrize("name", ["talos", "romeo", "g1"])
-def test_mirror_map_reflects_the_kinematics(name):
+def assert_mirror_reflects_the_kinematics(robot: Robot, seed: int) -> None:
     """Every joint of a mirrored configuration sits where its partner's reflection is."""
-    robot = Robot(name)
     model = robot.model
-    q = random_configuration(robot, 2)
+    q = random_configuration(robot, seed)
     d, dm = model.createData(), model.createData()
     pin.forwardKinematics(model, d, q)
     pin.forwardKinematics(model, dm, mirror_configuration(robot, q))
     P = np.diag([1.0, -1.0, 1.0])
     for jid in range(1, model.njoints):
-        partner = robot.joint_partner[jid]
-        assert np.allclose(P @ d.oMi[jid].translation, dm.oMi[partner].translation, atol=1e-9)
+        assert np.allclose(P @ d.oMi[jid].translation, dm.oMi[robot.joint_partner[jid]].translation, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["talos", "romeo", "g1"])
-def test_mirrored_dynamics_agree(name):
+def assert_mirrored_dynamics_agree(robot: Robot, seed: int) -> None:
     """Inverse dynamics of a mirrored (q, v, a) is the mirrored generalized force."""
-    robot = Robot(name)
-    rng = np.random.default_rng(3)
-    q = random_configuration(robot, 4)
+    rng = np.random.default_rng(seed)
+    q = random_configuration(robot, seed + 1)
     v, a = rng.normal(size=robot.model.nv), rng.normal(size=robot.model.nv)
     d = robot.model.createData()
     tau = pin.rnea(robot.model, d, q, v, a).copy()
     tau_m = pin.rnea(robot.model, d, mirror_configuration(robot, q), mirror_velocity(robot, v), mirror_velocity(robot, a))
     assert np.allclose(mirror_velocity(robot, tau), tau_m, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["talos", "romeo", "g1"])
+def test_mirror_map_reflects_the_kinematics(name):
+    assert_mirror_reflects_the_kinematics(Robot(name), 2)
+
+
+@pytest.mark.parametrize("name", ["talos", "romeo", "g1"])
+def test_mirrored_dynamics_agree(name):
+    assert_mirrored_dynamics_agree(Robot(name), 3)
 
 
 def test_second_robot_from_description_file(tmp_path):
@@ -107,7 +113,7 @@ def test_unknown_robot_is_a_clear_error():
 
 def test_missing_urdf_is_a_clear_error(tmp_path):
     path = tmp_path / "bad.json"
-    path.write_text('{"name": "x", "urdf": "missing.urdf", "feet": {}, "sole": {}, "pelvis": "b"}')
+    path.write_text('{"name": "x", "urdf": "missing.urdf", "pelvis": "b"}')
     with pytest.raises(Error, match="URDF not found"):
         Robot(str(path))
 
@@ -176,13 +182,7 @@ def test_an_axis_written_negative_is_mirrored_with_its_sign(tmp_path, robot):
     assert flipped.model.joints[knee + 2].shortname() == "JointModelRevoluteUnaligned"
     assert flipped.mirror_sign[knee] == -robot.mirror_sign[knee]
     assert flipped.leg_roles() == robot.leg_roles()
-    q = random_configuration(flipped, 5)
-    d, dm = flipped.model.createData(), flipped.model.createData()
-    pin.forwardKinematics(flipped.model, d, q)
-    pin.forwardKinematics(flipped.model, dm, mirror_configuration(flipped, q))
-    P = np.diag([1.0, -1.0, 1.0])
-    for jid in range(1, flipped.model.njoints):
-        assert np.allclose(P @ d.oMi[jid].translation, dm.oMi[flipped.joint_partner[jid]].translation, atol=1e-9)
+    assert_mirror_reflects_the_kinematics(flipped, 5)
 
 
 def test_a_relative_srdf_is_read_beside_the_description(tmp_path, monkeypatch, robot):
@@ -331,13 +331,7 @@ def test_alexander_loads_from_a_description_written_from_the_docs(tmp_path):
     assert 0.1 < robot.sole.front < 0.2 and 0.02 < robot.sole.back < 0.1 and 0.02 < robot.sole.half_width < 0.08
     for frame in robot.foot_frames.values():
         assert abs(robot.frame_placement(robot.q_ref, frame).translation[2]) < 1e-5
-    rng = np.random.default_rng(6)
-    q = random_configuration(robot, 7)
-    v, a = rng.normal(size=robot.model.nv), rng.normal(size=robot.model.nv)
-    d = robot.model.createData()
-    tau = pin.rnea(robot.model, d, q, v, a).copy()
-    tau_m = pin.rnea(robot.model, d, mirror_configuration(robot, q), mirror_velocity(robot, v), mirror_velocity(robot, a))
-    assert np.allclose(mirror_velocity(robot, tau), tau_m, atol=1e-9)
+    assert_mirrored_dynamics_agree(robot, 6)
 
 
 def test_ocp_settings_scale_with_the_robot_and_talos_keeps_the_defaults(robot, g1):
@@ -366,3 +360,19 @@ def test_robot_init_writes_a_description_that_loads_or_nothing(tmp_path):
     assert_one_line_error(run_cli("robot", "init", "bolt", "--out", str(tmp_path / "bolt.json")),
                           "floor contacts do not surround")
     assert not (tmp_path / "bolt.json").exists()
+
+
+@pytest.mark.parametrize(("fields", "words"), [
+    ({"feet": {"left": "l", "right": "r"}}, "give both 'feet' and 'sole'"),
+    ({"feet": {"left": "l"}, "sole": {"front": 0.1, "back": 0.1, "half_width": 0.05}}, "'feet' must name"),
+    ({"feet": {"left": "l", "right": "r"}, "sole": {"front": 0.1, "back": -0.1, "half_width": 0.05}}, "'sole' must give"),
+    ({"pelvis_height": "high"}, "'pelvis_height' must be a positive number"),
+    ({"max_step_length": 0}, "'max_step_length' must be a positive number"),
+    ({"symmetrize": "no"}, "'symmetrize' must be true or false"),
+])
+def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fields, words):
+    import json
+
+    (tmp_path / "bad.json").write_text(json.dumps({"name": "bad", "example_robot_data": "g1", "pelvis": "pelvis", **fields}))
+    with pytest.raises(Error, match=re.escape(words)):
+        Robot(str(tmp_path / "bad.json"))

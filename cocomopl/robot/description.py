@@ -80,12 +80,31 @@ def read_description(name_or_path: str | dict) -> dict:
 
 
 def _checked(desc, where: str) -> dict:
+    """``desc`` if its keys hold what ``docs/robots.md`` says, else an :class:`Error` naming the key."""
     if not isinstance(desc, dict):
         raise Error(f"robot description {where} is not a JSON object")
     for key in ("name", "pelvis"):
         if key not in desc:
             raise Error(f"robot description {where} lacks the key {key!r}")
+    if ("feet" in desc) != ("sole" in desc):
+        raise Error(f"robot description {where}: give both 'feet' and 'sole', or neither (both are then derived)")
+    if "feet" in desc and not (isinstance(desc["feet"], dict) and set(desc["feet"]) == {"left", "right"}
+                               and all(isinstance(v, str) for v in desc["feet"].values())):
+        raise Error(f"robot description {where}: 'feet' must name the frames of the soles, "
+                    '{"left": FRAME, "right": FRAME}')
+    if "sole" in desc and not (isinstance(desc["sole"], dict) and set(desc["sole"]) == {"front", "back", "half_width"}
+                               and all(_positive(v) for v in desc["sole"].values())):
+        raise Error(f"robot description {where}: 'sole' must give positive 'front', 'back' and 'half_width' in m")
+    for key in ("pelvis_height", "max_step_length"):
+        if key in desc and not _positive(desc[key]):
+            raise Error(f"robot description {where}: {key!r} must be a positive number of metres, not {desc[key]!r}")
+    if not isinstance(desc.get("symmetrize", True), bool):
+        raise Error(f"robot description {where}: 'symmetrize' must be true or false, not {desc['symmetrize']!r}")
     return desc
+
+
+def _positive(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value) and value > 0
 
 
 def load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
@@ -362,7 +381,7 @@ class Robot:
         _BUILT[desc["name"]] = desc
         self._visual: pin.GeometryModel | None = None  # visual_model(), loaded on first use
         self.name: str = desc["name"]
-        derive_feet = "feet" not in desc or "sole" not in desc
+        derive_feet = "feet" not in desc  # and so "sole" is not either (_checked)
         full, q_full_ref, collision = load_full_model(desc, pin.GeometryType.COLLISION if derive_feet else None)
         if full.joints[1].shortname() != "JointModelFreeFlyer":
             raise Error(f"robot {self.name!r} has no floating base (free-flyer root joint)")
@@ -371,9 +390,8 @@ class Robot:
             if len(collision.geometryObjects) == 0:  # a URDF without collision geometry: its meshes
                 collision = load_full_model(desc, pin.GeometryType.VISUAL)[2]
             frames, derived = derive_soles(full, collision, self.name)
-            if feet is None:
-                feet = {side: _add_sole_frame(full, side, *frames[side]) for side in frames}
-            sole = sole or dict(zip(("front", "back", "half_width"), derived))
+            feet = {side: _add_sole_frame(full, side, *frames[side]) for side in frames}
+            sole = dict(zip(("front", "back", "half_width"), derived))
         named_posture = q_full_ref is not None
         if q_full_ref is None:
             q_full_ref = pin.neutral(full)
