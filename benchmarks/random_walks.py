@@ -1,6 +1,7 @@
 """How often do generated walks stay up?  50 random 9-step sequences, simulated in MuJoCo.
 
-Each sequence draws its 9 step lengths uniformly from 150-400 mm (the training range),
+Each sequence draws its 9 step lengths uniformly from 150-400 mm (the training range; for
+another robot TALOS's range and ``--max-change-mm`` scaled by its leg length, G1: 110-290 mm),
 the last repeating the one before it (a stop starts in its own gait), each within
 ``--max-change-mm`` of the one before (default 100 mm: the largest change between
 consecutive steps in the paper's training set, 150 -> 250; the bundled set's transitions
@@ -139,11 +140,12 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
     return out
 
 
-def random_lengths(rng: np.random.Generator, max_change: float, n: int = 9) -> list[float]:
-    """Step lengths (mm) in 150-400, each within ``max_change`` of the previous (0: any)."""
-    out = [float(np.round(rng.uniform(150, 400)))]
+def random_lengths(rng: np.random.Generator, max_change: float, n: int = 9, lengths=(150.0, 400.0)) -> list[float]:
+    """Step lengths (mm) within ``lengths`` (mm), each within ``max_change`` of the previous (0: any)."""
+    shortest, longest = lengths
+    out = [float(np.round(rng.uniform(shortest, longest)))]
     while len(out) < n - 1:
-        low, high = (150, 400) if max_change <= 0 else (max(150, out[-1] - max_change), min(400, out[-1] + max_change))
+        low, high = lengths if max_change <= 0 else (max(shortest, out[-1] - max_change), min(longest, out[-1] + max_change))
         out.append(float(np.round(rng.uniform(low, high))))
     return out + out[-1:]  # a stop repeats the length before it
 
@@ -326,7 +328,10 @@ def main() -> int:
             sequences = [random_footstep_walk(robot, args.steps, seed=args.seed, walk=k, folder=folder)
                          for k in range(args.n)]
         else:
-            sequences = [{"lengths_mm": random_lengths(rng, args.max_change_mm)} for _ in range(args.n)]
+            scale = Robot(robot_name).scale  # TALOS's range and change, scaled to the model's robot
+            lengths = tuple(1000 * scale.length_m(x) for x in (0.15, 0.40))
+            args.max_change_mm *= scale.length
+            sequences = [{"lengths_mm": random_lengths(rng, args.max_change_mm, lengths=lengths)} for _ in range(args.n)]
         if args.dry_run:
             if args.json:
                 print(json.dumps({"seed": args.seed, "model": args.model, "walks": sequences}))

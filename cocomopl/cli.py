@@ -22,6 +22,11 @@ def cmd_dataset_generate(args):
     from cocomopl.jobs import generate_dataset
 
     lengths, extra, record = args.lengths_mm, None, None  # None: the default extra transitions of these lengths
+    if lengths is None and args.step_space is None and args.gaits is None:
+        from cocomopl.dataset.plan import default_lengths
+        from cocomopl.robot import Robot
+
+        lengths = default_lengths(Robot(args.robot))
     if args.step_space is not None:
         from cocomopl.dataset.design import step_space_design
         from cocomopl.robot import Robot
@@ -141,7 +146,7 @@ def cmd_reproduce(args):
 
     replacing(args, args.out, inputs=[args.model, args.data], folder=True)
     return reproduce_report(args.out, args.model, args.data, progress=not args.json, settings=sim_settings(args),
-                            command=args.command_line, kajita_variant=args.kajita)
+                            command=args.command_line, kajita_variant=args.kajita, robot=args.robot)
 
 
 def cmd_export(args):
@@ -206,12 +211,14 @@ def _dataset_parsers(sub) -> None:
                         "footstep range, each a start, cyclic and stop step, and transitions joining neighbours and "
                         f"PAIRS more pairs, both ways (default: {DEFAULT_STEP_SPACE_TEXT}; "
                         "docs/method.md#omnidirectional-training-set)")
-    design.add_argument("--lengths-mm", type=o.training_lengths_mm, default=DEFAULT_LENGTHS_M, metavar="MM,MM,...",
-                        help=f"training step lengths in millimetres, straight ahead (default: {lengths_mm})")
+    design.add_argument("--lengths-mm", type=o.training_lengths_mm, metavar="MM,MM,...",
+                        help=f"training step lengths in millimetres, straight ahead (default: {lengths_mm} for TALOS, "
+                        "scaled by the robot's leg length to 10 mm: docs/robots.md)")
     extra = ",".join(f"{1000 * a:g}-{1000 * b:g}" for a, b in DEFAULT_EXTRA_TRANSITIONS_M)
     gen.add_argument("--extra-transitions-mm", metavar="A-B,...",
                      help="transitions between training lengths that are not neighbours, in millimetres, solved both "
-                     f"ways (default: {extra}, those whose lengths are trained; '' for none)")
+                     f"ways (default: {extra} for TALOS, scaled as the lengths, those whose lengths are trained; "
+                     "'' for none)")
     gen.add_argument("--sampling", choices=SAMPLINGS, default="maximin",
                      help="how --step-space spreads its footsteps and pairs: maximin fills the range greedily, random "
                      "draws them uniformly, as for a held-out set (default: %(default)s)")
@@ -353,7 +360,8 @@ def _simulation_parsers(sub) -> None:
     reproduce = sub.add_parser("reproduce", help="the paper's experiment: M_gen vs M_opt vs Kajita, simulated; "
                                "Table I, Figs. 6, 8, 9")
     reproduce.add_argument("--out", default="cocomopl-reproduce", metavar="DIR", help="report folder (default: %(default)s)")
-    reproduce.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
+    reproduce.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the robot's bundled one)")
+    o.bundled_robot_option(reproduce)
     reproduce.add_argument("--data", metavar="DATASET.h5",
                            help="OC dataset for M_opt's steps and gait states (default: the bundled one)")
     reproduce.add_argument("--kajita", choices=("two-stage", "legacy"), default="two-stage",

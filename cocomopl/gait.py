@@ -26,6 +26,16 @@ M_OPT = (0.15, 0.15, 0.25, 0.35, 0.40, 0.35, 0.25, 0.15, 0.15)
 M_GEN_MM = ",".join(f"{1000 * x:g}" for x in M_GEN)
 
 
+def m_gen(robot: Robot) -> tuple[float, ...]:
+    """M_gen for ``robot``: TALOS's lengths scaled by its leg length, to 10 mm (TALOS: ``M_GEN``)."""
+    return tuple(robot.scale.length_m(x) for x in M_GEN)
+
+
+def m_opt(robot: Robot) -> tuple[float, ...]:
+    """M_opt for ``robot``, scaled as :func:`m_gen` (TALOS: ``M_OPT``)."""
+    return tuple(robot.scale.length_m(x) for x in M_OPT)
+
+
 def foot_separation(robot: Robot) -> float:
     """Lateral distance between the soles in the reference posture (m)."""
     left = robot.frame_placement(robot.q_ref, robot.foot_frames["left"]).translation

@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -93,7 +93,7 @@ def generate_dataset(
     description = Robot(robot)
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
                  "min_knee_flexion": min_knee_flexion}
-    defaults = robot_settings(description.mass, description.leg_length, description.sole.half_width)
+    defaults = robot_settings(description.scale)
     settings = replace(defaults, **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input
     known = {}
@@ -409,6 +409,7 @@ def train_model(
         "created": provenance["created"],
         "versions": provenance["versions"],
         "robot": steps.source["robot"],
+        **({"robot_description": steps.source["robot_description"]} if steps.source["robot_description"] else {}),
         # the dataset by name and checksum: its path would name a folder of this machine
         "dataset": {"created": steps.source["created"], **provenance["inputs"]["dataset"], "steps": len(steps)},
         "selection": rows,
@@ -500,7 +501,7 @@ def refine_walk_file(
 
     refinement = refinement or Refinement()
     walk = read_motion(path, motion_name)
-    dataset = dataset_path(refinement.dataset, omni=not all(spec.straight for spec in walk.steps))
+    dataset = dataset_path(refinement.dataset, omni=not all(spec.straight for spec in walk.steps), robot=walk.robot)
     out = output_file(out or f"{Path(path).stem}-refined.h5", "motion.h5", inputs=[path, dataset])
     refined, summary = refine(walk, replace(refinement, dataset=dataset), progress=progress)
     write_motions(out, {refined.motion.name: refined.motion},
@@ -633,6 +634,9 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
                  "knees_rad": [float(r.q_ref[7 + roles["knee"]]) for roles in r.leg_roles().values()]},
         placement_symmetrised_m=r.placement_asymmetry,
         inertia_symmetrised_m=r.inertia_asymmetry,
+        armature={"source": r.armature_source, "min_kg_m2": float(r.model.armature[6:].min()),
+                  "max_kg_m2": float(r.model.armature[6:].max())},
+        scale={**asdict(r.scale), "time": r.scale.time},
     )
     if png is not None:
         from cocomopl.analysis.plots import plot_robot_posture

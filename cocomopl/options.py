@@ -293,9 +293,10 @@ def synthesis_options(parser: argparse.ArgumentParser) -> None:
     from cocomopl.requests import FIRST_SWINGS, PLAN_DT
 
     walk = parser.add_mutually_exclusive_group()
-    walk.add_argument("--lengths-mm", type=walk_lengths_mm, default=M_GEN_MM, metavar="MM,MM,...",
+    walk.add_argument("--lengths-mm", type=walk_lengths_mm, default=(), metavar="MM,MM,...",
                       help="step lengths in millimetres, straight ahead, in order: start, ..., stop; the last two "
-                      f"equal (default: the paper's M_gen, {M_GEN_MM})")
+                      f"equal (default: the paper's M_gen, {M_GEN_MM} for TALOS, scaled to the model's robot by its "
+                      "leg length: docs/robots.md)")
     walk.add_argument("--footsteps", type=footstep_file, metavar="FILE.csv",
                       help="walk on the footsteps of a CSV file with columns x_m,y_m,yaw_deg,side, one landing per "
                       "row (docs/cli.md#footstep-files)")
@@ -303,7 +304,8 @@ def synthesis_options(parser: argparse.ArgumentParser) -> None:
                       help="walk to a goal pose of the feet's midpoint, metres and degrees from the start, on "
                       "footsteps planned within the model's learned range and training support (docs/method.md#footstep-planner); "
                       "given again, walk on to the next goal after stopping at this one")
-    parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the bundled one)")
+    parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the robot's bundled one)")
+    bundled_robot_option(parser)
     parser.add_argument("--dt", type=positive_float, metavar="S",
                         help=f"sample spacing of the generated walk, in s (default: {PLAN_DT:g})")
     parser.add_argument("--first-swing", choices=FIRST_SWINGS,
@@ -315,6 +317,13 @@ def synthesis_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", metavar="DATASET.h5",
                         help="with --refine: the OC dataset whose OCP settings are used (default: the bundled one)")
     parser.add_argument("--warm-start", choices=WARM_STARTS, metavar="FROM", help="with --refine: " + WARM_START_HELP)
+
+
+def bundled_robot_option(parser: argparse.ArgumentParser) -> None:
+    """``--robot``: whose bundled model and dataset are the defaults."""
+    parser.add_argument("--robot", metavar="NAME",
+                        help="a bundled robot whose model and dataset are the defaults, talos or g1 (default: the "
+                        "model's robot; talos for the bundled model); a model or dataset of another robot is refused")
 
 
 def dataset_and_model_options(parser: argparse.ArgumentParser) -> None:
@@ -345,7 +354,7 @@ def walk_request(args):
         path = StraightSteps(args.lengths_mm, args.first_swing or FIRST_SWINGS[0])
     refinement = Refinement(args.data, args.warm_start or DEFAULT_WARM_START) if args.refine else None
     return WalkRequest(path, model=args.model, dt=args.dt, strict=args.strict, refinement=refinement,
-                       replanner=getattr(args, "replanner", None))
+                       replanner=getattr(args, "replanner", None), robot=args.robot)
 
 
 def sim_settings(args):

@@ -24,17 +24,17 @@ from cocomopl.data import model_path as bundled_model_path
 from cocomopl.dataset.signals import signal_names
 from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
-from cocomopl.gait import M_GEN, M_OPT, sequence_specs, wrap_angle
+from cocomopl.gait import m_gen, m_opt, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
 from cocomopl.planning.goal import plan_through
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
-from cocomopl.primitives.model_file import load_model
+from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.provenance import stamp
 from cocomopl.requests import PLAN_DT, Footsteps, Goal, Goals, Refinement, StraightSteps, WalkRequest
 from cocomopl.results import GoalErrors, RefineSummary, ReproduceReport, SimulationRecord, WalkReport
-from cocomopl.robot import DEFAULT_ROBOT, Robot
+from cocomopl.robot import Robot
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, outside_support, support_radius
 from cocomopl.synthesis.world import place_steps, replace_stretch
 
@@ -61,6 +61,7 @@ class GeneratedWalk:
     model: MovementPrimitives
     motion: Motion
     steps: list[PredictedStep]
+    path: StraightSteps | Footsteps | Goals  # the request's, the default lengths filled in
     generation_s: float  # the primitives alone, after loading
     placement_s: float  # world placement, dynamics filter and inverse dynamics
     warnings: list[str] = field(default_factory=list)
@@ -202,14 +203,18 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
     ``refinement``.
     """
     path = request.path
-    if isinstance(path, StraightSteps):
+    if isinstance(path, StraightSteps) and path.lengths:
         specs = sequence_specs(path.lengths, path.first_swing)  # an impossible walk is refused before loading
     model_path = request.model_file()
     model = load_model(model_path).prepare()
-    robot = Robot(model.metadata_.get("robot", DEFAULT_ROBOT))
+    robot = model_robot(model)
     if list(model.signal_names) != signal_names(robot):
         raise Error(f"{model_path}: its signals are not robot {robot.name}'s joints, ZMP and pelvis")
+    if request.robot is not None and request.robot != robot.name:
+        raise Error(f"{model_path} is a model of robot {robot.name!r}, not {request.robot!r}")
     if isinstance(path, StraightSteps):
+        path = replace(path, lengths=path.lengths or m_gen(robot))
+        specs = sequence_specs(path.lengths, path.first_swing)
         check_reach(robot, path.lengths)
     elif isinstance(path, Footsteps):
         specs = walk_specs(robot, path.landings)
@@ -236,7 +241,7 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
             f"the dynamics filter left the walk's ZMP {100 * error:.1f} cm RMS from the learned one "
             f"(over {100 * FILTER_WARNING_M:.0f} cm): it is not dynamically consistent and will likely fall"
         )
-    walk = GeneratedWalk(robot, model, motion, steps, generation_s, placement_s, messages)
+    walk = GeneratedWalk(robot, model, motion, steps, path, generation_s, placement_s, messages)
     if request.refinement is not None:
         refinement = replace(request.refinement, dataset=request.dataset_file())
         refined, walk.refinement = refine(motion, refinement, progress=progress)
@@ -264,7 +269,8 @@ def refine(motion: Motion, refinement: Refinement | None = None, *, progress: bo
     from cocomopl.ocp.settings import OCPSettings
 
     refinement = refinement or Refinement()
-    dataset_path = bundled_dataset_path(refinement.dataset, omni=not all(spec.straight for spec in motion.steps))
+    dataset_path = bundled_dataset_path(refinement.dataset, omni=not all(spec.straight for spec in motion.steps),
+                                        robot=motion.robot)
     dataset, attrs = read_motions(dataset_path, dataset=True)
     robot = load_robot(next(iter(dataset.values())).robot)
     check_refinable(motion, robot)
@@ -411,16 +417,16 @@ def walk_report(
         files = [work / "motions.h5"]
         write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
         files += plot_comparison(walk.robot, motions, work, top_view=True, goals=goals)
-        title = f"cocomopl walk {request.path.label()}"
+        title = f"cocomopl walk {walk.path.label()}"
         files.append(write_html_viewer(walk.robot, rollout.measured, work / "walk.html", title=title))
         if video:
             files.append(work / "walk.mp4")
         straight = isinstance(request.path, StraightSteps)
         simulated = rollout.measured.simulation
         report = WalkReport(
-            label=request.path.label(),
+            label=walk.path.label(),
             folder=str(Path(out_dir)),
-            lengths_mm=[1000 * x for x in request.path.lengths] if straight else None,
+            lengths_mm=walk.motion.plan.lengths_mm if straight else None,
             footsteps=None if straight else walk.motion.plan.footsteps,
             goal=goal_errors(walk.robot, rollout.measured, request.path.poses) if isinstance(request.path, Goals) else None,
             steps=[s.spec.name for s in walk.steps],
@@ -485,6 +491,7 @@ def reproduce_report(
     settings: SimSettings = SimSettings(),
     command: str | None = None,
     kajita_variant: str = "two-stage",
+    robot: str | None = None,
 ) -> ReproduceReport:
     """The paper's experiment (sec. V): M_gen from the primitives, M_gen refined by the OCPs
     of the dataset at ``dataset_path`` (:func:`refine`), M_opt from chained OCPs (that
@@ -495,18 +502,21 @@ def reproduce_report(
 
     ``out_dir`` receives ``motions.h5`` (planned and simulated motions), ``table1.json`` (the
     report's JSON, every metric), and the comparison PNGs, written as a unit as :func:`walk_report`'s; the
-    model and dataset default to the bundled ones.  ``settings`` say how the walks are
+    model and dataset default to the bundled ones of ``robot`` (a bundled name; None: TALOS),
+    and M_gen and M_opt are scaled to it (:func:`~cocomopl.gait.m_gen`).  ``settings`` say how the walks are
     simulated (:class:`SimSettings`), always with the stabilizer and each walk's tuned gains.
     """
     from cocomopl.analysis.report_plots import plot_comparison
     from cocomopl.motion_file import report_folder, write_json, write_motions
 
     started = time.perf_counter()
-    dataset_path = bundled_dataset_path(dataset_path)
+    dataset_path = bundled_dataset_path(dataset_path, robot=robot)
+    model_path = bundled_model_path(model_path, robot=robot)
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
     with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
         robot, planned, simulated, figures = _paper_experiment(model_path, dataset_path, progress=progress,
-                                                              settings=settings, kajita_variant=kajita_variant)
+                                                              settings=settings, kajita_variant=kajita_variant,
+                                                              robot_name=robot)
         report = ReproduceReport(folder=str(Path(out_dir)), **figures, provenance=provenance)
         motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
                    for name, m in by_name.items()}
@@ -567,7 +577,7 @@ def simulate_compared(robot: Robot, planned: dict[str, Motion], *, progress: boo
 
 
 def _paper_experiment(model_path, dataset_path: Path, *, progress: bool, settings: SimSettings,
-                      kajita_variant: str = "two-stage") -> tuple[Robot, dict, dict, dict]:
+                      kajita_variant: str = "two-stage", robot_name: str | None = None) -> tuple[Robot, dict, dict, dict]:
     """:func:`reproduce_report`'s work: the robot, the planned and the simulated motions (by method: "MP", "refined"
     (M_gen refined by optimal control), "OC", "Kajita") and the :class:`~cocomopl.results.ReproduceReport`'s
     figures (all but provenance, files and wall time)."""
@@ -577,16 +587,16 @@ def _paper_experiment(model_path, dataset_path: Path, *, progress: bool, setting
 
     dataset, attrs = read_motions(dataset_path, dataset=True, signals=True)
     _refuse_failing_dataset(load_robot(next(iter(dataset.values())).robot), dataset_path, dataset, attrs)
-    walk = generate_walk(WalkRequest(StraightSteps(M_GEN), model=model_path))
+    walk = generate_walk(WalkRequest(StraightSteps(), model=model_path, robot=robot_name))
     robot = walk.robot
     if robot.name != next(iter(dataset.values())).robot:
         raise Error(f"the model is for robot {robot.name!r} and the dataset {dataset_path} for another")
     solve_started = time.perf_counter()
-    m_opt = solve_sequence(robot, sequence_specs(list(M_OPT)), dataset, settings=attrs["settings"], progress=progress)
+    optimal = solve_sequence(robot, sequence_specs(list(m_opt(robot))), dataset, settings=attrs["settings"], progress=progress)
     solve_s = time.perf_counter() - solve_started
     refined, refine_summary = refine(walk.motion, Refinement(dataset_path), progress=progress)
     kajita = kajita_for(walk, kajita_variant)
-    planned = {"MP": walk.motion, "refined": refined.motion, "OC": m_opt, "Kajita": kajita}
+    planned = {"MP": walk.motion, "refined": refined.motion, "OC": optimal, "Kajita": kajita}
     simulated, figures, window = simulate_compared(robot, planned, progress=progress, settings=settings)
     table = {}
     for name, label in (("OC", "OC planned (joint torques)"), ("MP", "MP planned (inverse dynamics)"),
@@ -609,10 +619,10 @@ def _paper_experiment(model_path, dataset_path: Path, *, progress: bool, setting
         "kajita": {key: kajita.meta[key] for key in (
             "pelvis_drop", "pelvis_drop_searched", "com_height_m", "swing_height", "zmp_smoothing", "second_stage",
             "first_stage_zmp_reference_rms_m", "zmp_reference_rms_m", "walking_span_s")} | {"variant": kajita_variant},
-        "m_opt_steps": len(m_opt.steps),
-        "m_opt_solved_now": m_opt.solution.solved_now,
+        "m_opt_steps": len(optimal.steps),
+        "m_opt_solved_now": optimal.solution.solved_now,
         "m_opt_solve_s": solve_s,
-        "m_opt_solver": m_opt.solution.solver,
+        "m_opt_solver": optimal.solution.solver,
         "generation_s": walk.generation_s,
     }
     return robot, planned, simulated, payload

@@ -50,9 +50,10 @@ def check_warm_start(name: str) -> str:
 
 @dataclass(frozen=True)
 class StraightSteps:
-    """Step ``lengths`` (m) straight ahead, in order: start, ..., stop; ``first_swing`` steps first."""
+    """Step ``lengths`` (m) straight ahead, in order: start, ..., stop; ``first_swing`` steps
+    first.  No lengths: the paper's M_gen scaled to the model's robot (:func:`~cocomopl.gait.m_gen`)."""
 
-    lengths: tuple[float, ...]
+    lengths: tuple[float, ...] = ()
     first_swing: str = "left"
 
     def __post_init__(self):
@@ -61,7 +62,7 @@ class StraightSteps:
             raise Error(f"the first swing foot is one of {', '.join(FIRST_SWINGS)}, not {self.first_swing!r}")
 
     def label(self) -> str:
-        return ",".join(f"{1000 * x:g}" for x in self.lengths) + " mm"
+        return ",".join(f"{1000 * x:g}" for x in self.lengths) + " mm" if self.lengths else "M_gen"
 
 
 @dataclass(frozen=True)
@@ -119,8 +120,10 @@ class WalkRequest:
     Attributes
     ----------
     path : the walk's :data:`WalkPath`
-    model : primitives model file; None: the bundled one (for footsteps and goals, the
-        bundled omnidirectional one)
+    model : primitives model file; None: the bundled one of ``robot`` (for footsteps and
+        goals, the bundled omnidirectional one)
+    robot : a bundled robot's name; None: the model's (TALOS for the bundled model).  A
+        model for another robot is refused
     dt : s, the generated walk's sample spacing; None: ``PLAN_DT``
     strict : refuse steps outside the training support instead of warning about them
     refinement : refine the generated walk by optimal control; None: no refinement
@@ -134,6 +137,7 @@ class WalkRequest:
     strict: bool = False
     refinement: Refinement | None = None
     replanner: str | None = None
+    robot: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.path, StraightSteps | Footsteps | Goals):
@@ -157,11 +161,12 @@ class WalkRequest:
 
     def model_file(self) -> Path:
         """The model file: the one given, or the bundled one for this walk."""
-        return model_path(self.model, omni=self.omni)
+        return model_path(self.model, omni=self.omni, robot=self.robot)
 
     def dataset_file(self) -> Path | None:
         """The refinement's dataset file (the one given, or the bundled one for this walk); None without refinement."""
-        return None if self.refinement is None else dataset_path(self.refinement.dataset, omni=self.omni)
+        return None if self.refinement is None else dataset_path(self.refinement.dataset, omni=self.omni,
+                                                                 robot=self.robot)
 
     def inputs(self) -> list[Path]:
         """The files the walk is made from: the model and the refinement's dataset."""

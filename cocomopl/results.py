@@ -598,6 +598,8 @@ class RobotCheck(Result):
     posture: dict
     placement_symmetrised_m: float
     inertia_symmetrised_m: float
+    armature: dict
+    scale: dict
     png: str | None = field(default=None, metadata=OPTIONAL)
 
     def to_table(self) -> str:
@@ -612,6 +614,10 @@ class RobotCheck(Result):
                      + ", ".join(f"{k:.2f}" for k in p['knees_rad']) + " rad")
         lines.append(f"symmetrised: joint placements by up to {self.placement_symmetrised_m * 1e6:.1f} um, "
                      f"link centres of mass by up to {self.inertia_symmetrised_m * 1e3:.2f} mm")
+        a, k = self.armature, self.scale
+        lines.append(f"armature ({a['source']}): {a['min_kg_m2']:.4g} to {a['max_kg_m2']:.4g} kg m^2")
+        lines.append(f"scale against TALOS: mass {k['mass']:g}, leg length {k['length']:g}, sole half width "
+                     f"{k['width']:g}, durations {k['time']:.3f} (docs/robots.md)")
         if self.png:
             lines.append(f"wrote {self.png}")
         return "\n".join(lines)

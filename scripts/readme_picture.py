@@ -1,12 +1,13 @@
-"""Make the README picture, docs/walk.png: a filmstrip of the default walk simulated in MuJoCo.
+"""Make the README pictures, docs/walk.png: a filmstrip of the default walk simulated in MuJoCo.
 
-The default walk (``M_GEN``, steps of 150 to 390 mm) is generated from the bundled
-primitives and simulated with the stabiliser, as ``cocomopl walk`` does.  The frames are
+The default walk (M_gen, steps of 150 to 390 mm for TALOS, scaled to another robot) is
+generated from the robot's bundled primitives and simulated with the stabiliser, as
+``cocomopl walk [--robot NAME]`` does.  The frames are
 one stride, the two steps in the middle of the walk, seen from the side by a camera that
 follows the pelvis (``render_frames``' side view; the robot walks to the right), side by side.  Takes about 35 s on
 two cores, most of it the simulation.
 
-Usage: ``python scripts/readme_picture.py [--out docs/walk.png]``
+Usage: ``python scripts/readme_picture.py [--robot g1 --out docs/walk-g1.png]``
 """
 
 from __future__ import annotations
@@ -17,8 +18,6 @@ from pathlib import Path
 import imageio.v2 as imageio
 import numpy as np
 
-from cocomopl.data import BUNDLED_MODEL
-from cocomopl.gait import M_GEN
 from cocomopl.motion import Motion
 from cocomopl.pipeline import generate_walk, rollout_of
 from cocomopl.requests import StraightSteps, WalkRequest
@@ -48,9 +47,10 @@ def filmstrip(frames: list[np.ndarray], gap: int) -> np.ndarray:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/walk.png"), help="PNG to write (default: %(default)s)")
+    parser.add_argument("--robot", default="talos", help="a bundled robot (default: %(default)s)")
     args = parser.parse_args()
 
-    walk = generate_walk(WalkRequest(StraightSteps(M_GEN), model=BUNDLED_MODEL))
+    walk = generate_walk(WalkRequest(StraightSteps(), robot=args.robot))
     rollout = rollout_of(walk.robot, walk.motion)
     if rollout.fell:
         raise SystemExit(f"the default walk fell at {rollout.fall_time:.2f} s: no picture made")

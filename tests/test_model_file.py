@@ -409,3 +409,18 @@ def test_the_reading_check_predicts_start_steps_from_rest_as_a_walk_does(monkeyp
     load_model(model_path(None))
     assert ("start", False) not in calls and ("start", True) in calls
     assert {kind for kind, unconditioned in calls if not unconditioned} == {"cyclic", "transition", "stop"}
+
+
+def test_a_model_of_a_robot_of_ones_own_carries_its_description(model, tmp_path):
+    """Without a recorded description a robot name must be a bundled one; with it, the model
+    rebuilds the robot from the file alone."""
+    from cocomopl.primitives.model_file import model_robot
+    from cocomopl.robot import Robot
+
+    with pytest.raises(Error, match="metadata 'robot': unknown robot 'mybot'"):
+        save_model(tmp_path / "nameless.npz", model, {"robot": "mybot"})
+        load_model(tmp_path / "nameless.npz")
+    described = {**Robot("talos").description, "name": "mybot"}
+    save_model(tmp_path / "mybot.npz", model, {"robot": "mybot", "robot_description": described})
+    robot = model_robot(load_model(tmp_path / "mybot.npz"))
+    assert robot.name == "mybot" and robot.joint_names == Robot("talos").joint_names

@@ -68,7 +68,7 @@ def plain(cell: str) -> str:
 
 def test_the_readme_results_table_is_short():
     rows = results_table()
-    assert 1 <= len(rows) <= 10
+    assert 1 <= len(rows) <= 11  # ten for TALOS, one for the G1
     for row in rows:
         assert len(row) == 3, row
         assert all(len(cell) <= 120 for cell in row), row

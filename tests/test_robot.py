@@ -16,6 +16,7 @@ from cocomopl.robot import (
     mirror_velocity,
     mirror_wrenches,
 )
+from cocomopl.robot.scale import REFERENCE_OMEGA, Scale
 
 
 @pytest.fixture(scope="module")
@@ -337,12 +338,51 @@ def test_alexander_loads_from_a_description_written_from_the_docs(tmp_path):
 def test_ocp_settings_scale_with_the_robot_and_talos_keeps_the_defaults(robot, g1):
     from cocomopl.ocp.settings import OCPSettings, robot_settings
 
-    assert robot_settings(robot.mass, robot.leg_length, robot.sole.half_width) == OCPSettings()
-    scaled = robot_settings(g1.mass, g1.leg_length, g1.sole.half_width)
+    assert robot.scale == Scale() and robot_settings(robot.scale) == OCPSettings()
+    scaled = robot_settings(g1.scale)
     # a 25 mm half-wide sole keeps 18 mm of it for the ZMP, as TALOS keeps 47 of its 67 mm
     assert scaled.zmp_margin == pytest.approx(0.02 * 0.372) and g1.sole.half_width - scaled.zmp_margin > 0.017
     assert scaled.clearance == pytest.approx(0.05 * 0.731)
     assert scaled.w_load_transfer * g1.mass**2 == pytest.approx(OCPSettings().w_load_transfer * robot.mass**2, rel=2e-3)
+    # double supports keep the Froude number, in whole knots: 0.15 s x sqrt(0.731) = 0.128 s -> 5 knots
+    assert scaled.ds_duration == pytest.approx(0.125)
+    for key in ("ds_duration", "ss_duration", "start_ds_duration", "rest_duration"):
+        knots = getattr(scaled, key) / scaled.dt
+        assert knots == pytest.approx(round(knots))
+        if key != "ss_duration":
+            default = getattr(OCPSettings(), key)
+            assert abs(getattr(scaled, key) / default - g1.scale.time) <= scaled.dt / 2 / default
+    # the single support lets a lateral error grow in proportion to the soles' width:
+    # exp(omega T) is 0.372 of TALOS's, omega scaling as 1 / sqrt(leg length)
+    omega = REFERENCE_OMEGA / g1.scale.time
+    growth = np.exp(omega * scaled.ss_duration) / np.exp(REFERENCE_OMEGA * OCPSettings().ss_duration)
+    assert scaled.ss_duration == pytest.approx(0.425) and growth == pytest.approx(g1.scale.width, rel=omega * scaled.dt)
+
+
+def test_walk_and_training_lengths_scale_with_the_leg_and_talos_keeps_the_papers(robot, g1):
+    from cocomopl.dataset.plan import (
+        DEFAULT_EXTRA_TRANSITIONS_M,
+        DEFAULT_LENGTHS_M,
+        default_lengths,
+        default_transitions,
+    )
+    from cocomopl.gait import M_GEN, M_OPT, m_gen, m_opt
+
+    assert m_gen(robot) == M_GEN and m_opt(robot) == M_OPT and default_lengths(robot) == DEFAULT_LENGTHS_M
+    assert default_transitions(DEFAULT_LENGTHS_M, robot) == DEFAULT_EXTRA_TRANSITIONS_M
+    lengths = default_lengths(g1)
+    assert lengths == (0.11, 0.15, 0.18, 0.22, 0.26, 0.29)
+    # every M_gen and M_opt length is a trained one, and the extra transitions join trained lengths
+    assert set(m_gen(g1)) <= set(lengths) and set(m_opt(g1)) <= set(lengths)
+    assert default_transitions(lengths, g1) == ((0.11, 0.18), (0.18, 0.26))
+
+
+def test_armature_is_the_models_given_or_scaled_from_talos(robot, g1):
+    assert robot.armature_source == "the model's" and np.all(robot.model.armature[6:] == 0.1)
+    assert g1.armature_source == "derived"
+    assert g1.model.armature[6:] == pytest.approx(0.1 * g1.scale.mass * g1.scale.length**2)
+    given = Robot({**g1.description, "name": "g1-armature", "armature": 0.005})
+    assert given.armature_source == "given" and np.all(given.model.armature[6:] == 0.005)
 
 
 @pytest.mark.slow  # runs the command line or a second process
@@ -369,6 +409,7 @@ def test_robot_init_writes_a_description_that_loads_or_nothing(tmp_path):
     ({"pelvis_height": "high"}, "'pelvis_height' must be a positive number"),
     ({"max_step_length": 0}, "'max_step_length' must be a positive number"),
     ({"symmetrize": "no"}, "'symmetrize' must be true or false"),
+    ({"armature": -0.01}, "'armature' must be a positive number of kg m^2"),
 ])
 def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fields, words):
     import json

@@ -98,6 +98,8 @@ def test_simulate_a_motion_file_replacing_an_earlier_result(tmp_path):
         (("walk", "--lengths-mm", "250"), ["at least two"]),
         (("walk", "--lengths-mm", "0.15,0.25,0.25"), ["millimetres", "150 mm"]),
         (("walk", "--model", "missing.npz"), ["not found", "missing.npz"]),
+        (("walk", "--robot", "romeo"), ["no bundled romeo model", "romeo_model.npz"]),
+        (("walk", "--robot", "g1", "--model", str(BUNDLED_MODEL)), ["a model of robot 'talos', not 'g1'"]),
         (("simulate", "missing.h5"), ["not found"]),
         (("walk", "--contact-time-constant-s", "0.001"), ["contact time constant", "0.002"]),
         (("simulate", "missing.h5", "--contact-time-constant-s", "nan"), ["positive finite"]),

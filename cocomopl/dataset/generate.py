@@ -377,9 +377,9 @@ def generate(
         written (a file already at ``output`` stays as it was).
     """
     settings = settings or OCPSettings()
-    if extra_transitions is None:
-        extra_transitions = default_transitions(lengths)
     robot = Robot(robot_name)  # fail fast on a bad robot before any process starts
+    if extra_transitions is None:
+        extra_transitions = default_transitions(lengths, robot)
     check_stances(robot, lengths, settings)
     output = Path(output)
     parts = output.with_name(output.name + ".parts")

@@ -82,9 +82,17 @@ def parse_gait_grid(text: str) -> tuple[tuple[float, ...], tuple[float, ...], tu
     return tuple(out)
 
 
-def default_transitions(lengths: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
-    """The default extra transitions that join two of ``lengths``."""
-    return tuple(pair for pair in DEFAULT_EXTRA_TRANSITIONS_M if set(pair) <= set(lengths))
+def default_lengths(robot) -> tuple[float, ...]:
+    """The default training lengths for ``robot``: TALOS's scaled by its leg length, to 10 mm."""
+    return tuple(dict.fromkeys(robot.scale.length_m(x) for x in DEFAULT_LENGTHS_M))
+
+
+def default_transitions(lengths: tuple[float, ...], robot=None) -> tuple[tuple[float, float], ...]:
+    """The default extra transitions (TALOS's scaled to ``robot`` as :func:`default_lengths`)
+    that join two of ``lengths``."""
+    scaled = DEFAULT_EXTRA_TRANSITIONS_M if robot is None else tuple(
+        tuple(robot.scale.length_m(x) for x in pair) for pair in DEFAULT_EXTRA_TRANSITIONS_M)
+    return tuple(pair for pair in scaled if set(pair) <= set(lengths))
 
 
 def training_specs(lengths: tuple, extra_transitions: tuple = ()) -> list[StepSpec]:

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
+from typing import TYPE_CHECKING
 
 from cocomopl.errors import Error
+
+if TYPE_CHECKING:
+    from cocomopl.robot.scale import Scale
 
 # what refinement warm-starts each step's OCP from: the generated step, the dataset's solved
 # step nearest it, or the solved steps around it interpolated (the nearest where they do not
@@ -12,13 +16,6 @@ from cocomopl.errors import Error
 # fewest iterations (docs/results.md#refinement)
 WARM_STARTS = ("generated", "nearest", "interpolated")
 DEFAULT_WARM_START = "interpolated"
-
-
-# The robot the defaults below were tuned on (TALOS): its mass (kg), its pelvis height above the
-# soles with straight legs (m) and its soles' half width (m).  robot_settings scales by them.
-REFERENCE_MASS_KG = 90.27
-REFERENCE_LEG_LENGTH_M = 1.083
-REFERENCE_SOLE_HALF_WIDTH_M = 0.0672
 
 
 @dataclass(frozen=True)
@@ -102,22 +99,23 @@ class OCPSettings:
         return cls(**values)
 
 
-def robot_settings(mass: float, leg_length: float, sole_half_width: float) -> OCPSettings:
-    """The default settings for a robot of ``mass`` (kg), ``leg_length`` (m, the pelvis height
-    above the soles with straight legs) and ``sole_half_width`` (m), scaled from the robot they
-    were tuned on (``REFERENCE_*``; docs/robots.md):
+def robot_settings(scale: Scale) -> OCPSettings:
+    """The default settings for a robot of ``scale`` (:class:`~cocomopl.robot.scale.Scale`,
+    its size relative to TALOS's, on which they were tuned; docs/robots.md):
 
     * the ZMP margin with the soles' half width (TALOS: 20 mm of 67 mm);
     * the swing's clearance and the gaps between the soles with the leg length;
     * the load-transfer weight (N^-2) with the inverse square of the weight, so that its cost
-      is the same share of a step's.
+      is the same share of a step's;
+    * the double supports' durations with the square root of the leg length (the same Froude
+      number), and the single support's also with the soles' width
+      (:meth:`~cocomopl.robot.scale.Scale.single_support`), each a whole number of knots.
 
-    Each ratio is rounded to 0.1 %, so that the reference robot gets the defaults exactly.
+    TALOS (a scale of 1) gets the defaults exactly.
     """
-    width = round(sole_half_width / REFERENCE_SOLE_HALF_WIDTH_M, 3)
-    length = round(leg_length / REFERENCE_LEG_LENGTH_M, 3)
-    weight = round(mass / REFERENCE_MASS_KG, 3)
     d = OCPSettings()
-    return replace(d, zmp_margin=d.zmp_margin * width, clearance=d.clearance * length,
-                   swing_lateral_gap=d.swing_lateral_gap * length, sole_gap=d.sole_gap * length,
-                   w_load_transfer=d.w_load_transfer / weight**2)
+    durations = {key: scale.duration(getattr(d, key), d.dt) for key in ("ds_duration", "start_ds_duration", "rest_duration")}
+    durations["ss_duration"] = scale.single_support(d.ss_duration, d.dt)
+    return replace(d, zmp_margin=d.zmp_margin * scale.width, clearance=d.clearance * scale.length,
+                   swing_lateral_gap=d.swing_lateral_gap * scale.length, sole_gap=d.sole_gap * scale.length,
+                   w_load_transfer=d.w_load_transfer / scale.mass**2, **durations)

@@ -189,10 +189,9 @@ def _seed(seed: int, stream: int) -> int:
 def _robot(model, robot):
     if robot is not None:
         return robot
-    from cocomopl.motion_file import load_robot
-    from cocomopl.robot import DEFAULT_ROBOT
+    from cocomopl.primitives.model_file import model_robot
 
-    return load_robot((getattr(model, "metadata_", None) or {}).get("robot") or DEFAULT_ROBOT)
+    return model_robot(model)
 
 
 def _footstep_steps(robot, count: int, samples: int, seed: int, kinds: list[str]) -> list[StepSpec]:

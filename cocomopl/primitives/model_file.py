@@ -262,8 +262,10 @@ def _read(path: str | Path) -> tuple[dict, dict[str, np.ndarray]]:
 def _validate(path: Path, meta: dict, arrays: dict[str, np.ndarray]) -> None:
     """Raise :class:`Error` ``"PATH: what is wrong"`` unless the metadata and the arrays are
     complete, well typed and consistent with each other."""
+    # a recorded description stands for the robot: its name need not be a bundled one
+    fields = {**_METADATA, "robot": (False, _text)} if "robot_description" in meta else _METADATA
     try:
-        _check_fields(meta, _METADATA, "metadata")
+        _check_fields(meta, fields, "metadata")
         _check_arrays(meta, arrays)
     except _Invalid as exc:
         raise Error(f"{path}: {exc}") from None
@@ -351,6 +353,7 @@ _METADATA = {
     "fit_time_s": (True, _real(0.0)),
     "explained_variance": (True, _scores),
     "robot": (False, _robot),  # synthesis defaults to DEFAULT_ROBOT
+    "robot_description": (False, _object),  # a robot that is not bundled: its description
     "dataset": (False, _dataset),
     "selection": (False, _selection),
     "command": (False, _text),
@@ -661,3 +664,15 @@ def load_model(path: str | Path) -> MovementPrimitives:
 def model_metadata(path: str | Path) -> dict:
     """The decoded metadata of a model file, after the same checks as :func:`load_model`."""
     return _read(path)[0]
+
+
+def model_robot(model):
+    """The robot a loaded model is for, from its metadata: its recorded description if it has
+    one (a robot that is not bundled), else its bundled name (default TALOS)."""
+    from cocomopl.motion_file import load_robot
+    from cocomopl.robot import DEFAULT_ROBOT
+
+    meta = getattr(model, "metadata_", None) or {}
+    described = meta.get("robot_description")
+    return load_robot(meta.get("robot") or DEFAULT_ROBOT,
+                      None if described is None else json.dumps(described, sort_keys=True))

@@ -118,7 +118,8 @@ def load_training_steps(path) -> TrainingSteps:
         values.append(signals["values"])
         phase_time.append(signals["phase_time"])
         durations.append(_phase_durations(signals["t"], signals["phase_time"]))
-    source = {"path": str(path), "created": str(attrs.get("created", "")), "robot": next(iter(motions.values())).robot}
+    source = {"path": str(path), "created": str(attrs.get("created", "")), "robot": next(iter(motions.values())).robot,
+              "robot_description": attrs.get("robot_description")}
     return TrainingSteps(specs, values, phase_time, durations, signal_names, source)
 
 

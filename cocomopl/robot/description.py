@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from cocomopl.errors import Error
+from cocomopl.robot.scale import REFERENCE_ARMATURE_KG_M2, Scale
 
 DESCRIPTIONS_DIR = Path(__file__).parent
 DEFAULT_ROBOT = "talos"
@@ -98,6 +99,8 @@ def _checked(desc, where: str) -> dict:
     for key in ("pelvis_height", "max_step_length"):
         if key in desc and not _positive(desc[key]):
             raise Error(f"robot description {where}: {key!r} must be a positive number of metres, not {desc[key]!r}")
+    if "armature" in desc and not _positive(desc["armature"]):
+        raise Error(f"robot description {where}: 'armature' must be a positive number of kg m^2, not {desc['armature']!r}")
     if not isinstance(desc.get("symmetrize", True), bool):
         raise Error(f"robot description {where}: 'symmetrize' must be true or false, not {desc['symmetrize']!r}")
     return desc
@@ -370,6 +373,10 @@ class Robot:
         Each joint's mirror partner (a model joint id per model joint id, found by structure).
     mirror_perm, mirror_sign : ndarray (nu,)
         Left/right mirror map: mirrored joint ``i`` is ``mirror_sign[i] * q[mirror_perm[i]]``.
+    armature_source : str
+        Where the joints' armature (reflected rotor inertia, ``model.armature``) comes from:
+        ``given`` by the description, ``the model's`` rotor parameters, or ``derived``
+        (TALOS's scaled to the robot's mass and leg length squared).
     placement_asymmetry, inertia_asymmetry : float
         The largest move of a joint's origin and of a link's centre of mass made to render
         the model exactly symmetric, m (0 when the description turns ``symmetrize`` off).
@@ -424,6 +431,7 @@ class Robot:
         if not named_posture:
             self.q_ref = self._bent_knee_posture(desc.get("pelvis_height"))
         self.inertia_asymmetry = self._symmetrize_inertias() if symmetrize else 0.0
+        self.armature_source = self._set_armature(desc.get("armature"))
 
     # ------------------------------------------------------------------ set-up helpers
     def _frame_id(self, name: str) -> int:
@@ -438,6 +446,25 @@ class Robot:
             name = self.model.names[jid]
             q[self.model.idx_qs[jid]] = q_full[full.idx_qs[full.getJointId(name)]]
         return q
+
+    def _set_armature(self, given: float | None) -> str:
+        """Give every actuated joint the description's ``armature`` (kg m^2), or, where the model
+        has no rotor inertia at all, TALOS's scaled to the robot; say which."""
+        v = slice(6, None)
+        if given is not None:
+            self.model.armature[v] = given
+            return "given"
+        if np.any(self.model.armature[v]):
+            return "the model's"
+        # a servo's rotor, reflected through its gear, stiffens the light links' dynamics
+        # against the servo's gains: without it, G1's stance foot chatters on the floor
+        self.model.armature[v] = REFERENCE_ARMATURE_KG_M2 * self.scale.mass * self.scale.length**2
+        return "derived"
+
+    @functools.cached_property
+    def scale(self) -> Scale:
+        """The robot's size relative to TALOS's, by which size-dependent defaults scale."""
+        return Scale.of(self.mass, self.leg_length, self.sole.half_width)
 
     @functools.cached_property
     def leg_length(self) -> float:

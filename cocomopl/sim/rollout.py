@@ -211,7 +211,7 @@ def simulate(
     sim = with_gains(sim, servos)
     dt = sim.mj.opt.timestep
     reference = Reference(motion, dt, reference_cutoff_hz, servo_gains=sim.servo_gains() if feedforward else None)
-    gains = (gains or gains_for(motion)) if stabilizer else None
+    gains = (gains or gains_for(motion, sim.robot)) if stabilizer else None
     control = None if gains is None else Stabilizer(sim, motion, gains)
     if replanner is not None:
         replanner.start(control)

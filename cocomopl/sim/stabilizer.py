@@ -40,7 +40,7 @@ corrections decay with a faster leak, so that it lands flat.  ``cocomopl simulat
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import mujoco
 import numpy as np
@@ -51,6 +51,8 @@ from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 from cocomopl.sim.hooks import Hook, Step
 
+# The gains and limits in N, m and N m below are TALOS's: the stabilizer scales them to the
+# robot it runs on (Robot.scale, docs/robots.md#settings-scaled-to-the-robot).
 ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
 # N m s/rad: D, how slowly an ankle yields to a torque error.  3000, not 300: a stiffer ankle
@@ -111,9 +113,12 @@ TUNED_GAINS = {
 }
 
 
-def gains_for(reference: Motion) -> StabilizerGains:
-    """The tuned gains for the generator that made ``reference``; the defaults for any other."""
-    return TUNED_GAINS.get(reference.producer, StabilizerGains())
+def gains_for(reference: Motion, robot: Robot) -> StabilizerGains:
+    """The tuned gains for the generator that made ``reference`` (the defaults for any other),
+    for ``robot``: the ankle damping scaled by its torques' ratio to TALOS's, on which they
+    were tuned (:class:`~cocomopl.robot.scale.Scale`)."""
+    tuned = TUNED_GAINS.get(reference.producer, StabilizerGains())
+    return replace(tuned, ankle_damping=tuned.ankle_damping * robot.scale.torque)
 
 
 def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -140,7 +145,8 @@ def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
             J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED)
             J_leg = J[:, [6 + i for i in chain]]
             # damped least squares: a stretched knee cannot shorten the leg at first order
-            lifts[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + LIFT_DAMPING**2 * np.eye(6), LIFT)
+            damping = LIFT_DAMPING * robot.scale.length
+            lifts[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + damping**2 * np.eye(6), LIFT)
             moments[k, j, chain] = -J_leg[3:5].T
             orientations[k, j] = data.oMf[robot.foot_frames[side]].rotation
     return lifts, moments, orientations
@@ -156,6 +162,11 @@ class Stabilizer(Hook):
         self.ankle_damping = gains.ankle_damping
         self.robot = sim.robot
         self.roles = self.robot.leg_roles()
+        # the limits tuned on TALOS, scaled to the robot's weight and size
+        scale = self.robot.scale
+        self.force_damping = FORCE_DAMPING * scale.mass
+        self.tilt_min_force = TILT_MIN_FORCE * scale.mass
+        self.max_zmp_shift = MAX_ZMP_SHIFT * scale.length
         self.dt = float(sim.mj.opt.timestep)
         self._track(reference)
         self.com = None  # the measured CoM at the previous call, for its velocity
@@ -220,12 +231,12 @@ class Stabilizer(Hook):
                 self.ankles[ankles] -= self.dt * self.ankles[ankles] / SWING_LEAK
             # in single support only: held in double support, a take-up kept both soles rolled
             # onto their toes as the robot came to rest after a start step played alone
-            resting = stance == side and forces[j] > TILT_MIN_FORCE
+            resting = stance == side and forces[j] > self.tilt_min_force
             target = self._tilt_take_up(data, k, j, ankles) if resting else np.zeros(2)
             self.tilts[j] += (target - self.tilts[j]) * min(self.dt / TILT_FILTER, 1.0)
             out[ankles] += self.tilts[j]
         error = (forces[0] - forces[1]) - self.force_difference[k]
-        self.z += self.dt * (error / FORCE_DAMPING - self.z / FORCE_LEAK)
+        self.z += self.dt * (error / self.force_damping - self.z / FORCE_LEAK)
         out += self.ankles + 0.5 * self.z * (self.lifts[k, 0] - self.lifts[k, 1])
         return np.clip(out, -MAX_CORRECTION, MAX_CORRECTION)
 
@@ -250,4 +261,4 @@ class Stabilizer(Hook):
             self.com_velocity += (velocity - self.com_velocity) * min(self.dt / COM_VELOCITY_FILTER, 1.0)
         self.com = com
         self.dcm_error = com + self.com_velocity / self.omega - self.dcm[k]
-        return np.clip(self.dcm_gain * self.dcm_error, -MAX_ZMP_SHIFT, MAX_ZMP_SHIFT)
+        return np.clip(self.dcm_gain * self.dcm_error, -self.max_zmp_shift, self.max_zmp_shift)
