@@ -377,6 +377,20 @@ def test_walk_and_training_lengths_scale_with_the_leg_and_talos_keeps_the_papers
     assert default_transitions(lengths, g1) == ((0.11, 0.18), (0.18, 0.26))
 
 
+def test_a_derived_posture_stands_the_soles_as_at_neutral_or_as_far_apart_as_asked(g1):
+    def separation(r):
+        return float(np.diff([r.frame_placement(r.q_ref, r.foot_frames[side]).translation[1]
+                              for side in ("right", "left")])[0])
+
+    neutral = pin.neutral(g1.model)
+    assert separation(g1) == pytest.approx(float(np.diff([g1.frame_placement(neutral, g1.foot_frames[side]).translation[1]
+                                                          for side in ("right", "left")])[0]), abs=1e-4)
+    narrow = Robot({**g1.description, "name": "g1-narrow", "foot_separation": 0.124})
+    assert separation(narrow) == pytest.approx(0.124, abs=1e-4)
+    for frame in narrow.foot_frames.values():  # flat on the floor
+        assert narrow.frame_placement(narrow.q_ref, frame).rotation == pytest.approx(np.eye(3), abs=1e-4)
+
+
 def test_armature_is_the_models_given_or_scaled_from_talos(robot, g1):
     assert robot.armature_source == "the model's" and np.all(robot.model.armature[6:] == 0.1)
     assert g1.armature_source == "derived"
@@ -410,6 +424,7 @@ def test_robot_init_writes_a_description_that_loads_or_nothing(tmp_path):
     ({"max_step_length": 0}, "'max_step_length' must be a positive number"),
     ({"symmetrize": "no"}, "'symmetrize' must be true or false"),
     ({"armature": -0.01}, "'armature' must be a positive number of kg m^2"),
+    ({"foot_separation": "wide"}, "'foot_separation' must be a positive number"),
 ])
 def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fields, words):
     import json

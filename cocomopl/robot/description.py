@@ -96,7 +96,7 @@ def _checked(desc, where: str) -> dict:
     if "sole" in desc and not (isinstance(desc["sole"], dict) and set(desc["sole"]) == {"front", "back", "half_width"}
                                and all(_positive(v) for v in desc["sole"].values())):
         raise Error(f"robot description {where}: 'sole' must give positive 'front', 'back' and 'half_width' in m")
-    for key in ("pelvis_height", "max_step_length"):
+    for key in ("pelvis_height", "max_step_length", "foot_separation"):
         if key in desc and not _positive(desc[key]):
             raise Error(f"robot description {where}: {key!r} must be a positive number of metres, not {desc[key]!r}")
     if "armature" in desc and not _positive(desc["armature"]):
@@ -429,7 +429,7 @@ class Robot:
         self.max_step_length = float(desc.get("max_step_length", np.inf))
         self.mirror_perm, self.mirror_sign = self._derive_mirror_map()
         if not named_posture:
-            self.q_ref = self._bent_knee_posture(desc.get("pelvis_height"))
+            self.q_ref = self._bent_knee_posture(desc.get("pelvis_height"), desc.get("foot_separation"))
         self.inertia_asymmetry = self._symmetrize_inertias() if symmetrize else 0.0
         self.armature_source = self._set_armature(desc.get("armature"))
 
@@ -473,11 +473,12 @@ class Robot:
         soles = [self.frame_placement(neutral, frame).translation[2] for frame in self.foot_frames.values()]
         return float(neutral[2] - np.mean(soles))
 
-    def _bent_knee_posture(self, pelvis_height: float | None) -> np.ndarray:
+    def _bent_knee_posture(self, pelvis_height: float | None, separation: float | None = None) -> np.ndarray:
         """A standing posture for a robot whose description names none: the soles flat on the
-        floor where they are at the neutral configuration, the pelvis ``pelvis_height`` (m)
-        above them -- by default :data:`PELVIS_DROP` lower than with straight legs -- and the
-        legs bent to reach (:func:`~cocomopl.kinematics.place_legs`)."""
+        floor where they are at the neutral configuration (``separation`` m apart sideways
+        if given), the pelvis ``pelvis_height`` (m) above
+        them -- by default :data:`PELVIS_DROP` lower than with straight legs -- and the legs
+        bent to reach (:func:`~cocomopl.kinematics.place_legs`)."""
         from cocomopl.kinematics import IK_REACHED, leg_joints, place_legs
 
         q = pin.neutral(self.model)
@@ -489,6 +490,9 @@ class Robot:
             raise Error(f"robot {self.name!r}: pelvis_height {height:g} m is not within (0, {straight:.3f}] m, "
                         "the pelvis height with straight legs")
         targets = {side: pin.SE3(sole.rotation, sole.translation - [0.0, 0.0, floor]) for side, sole in soles.items()}
+        if separation is not None:
+            for target in targets.values():
+                target.translation[1] = np.sign(target.translation[1]) * float(separation) / 2
         q[2] = height
         data = self.model.createData()
         pin.forwardKinematics(self.model, data, q)
