@@ -513,7 +513,7 @@ def reproduce_report(
     dataset_path = bundled_dataset_path(dataset_path, robot=robot)
     model_path = bundled_model_path(model_path, robot=robot)
     provenance = walk_provenance(command, model_path, dataset=dataset_path)
-    with report_folder(out_dir, inputs=[bundled_model_path(model_path), dataset_path]) as work:
+    with report_folder(out_dir, inputs=[model_path, dataset_path]) as work:
         robot, planned, simulated, figures = _paper_experiment(model_path, dataset_path, progress=progress,
                                                               settings=settings, kajita_variant=kajita_variant,
                                                               robot_name=robot)

@@ -138,6 +138,7 @@ def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     lifts = np.zeros((len(q), 2, robot.nu))
     moments = np.zeros((len(q), 2, robot.nu, 2))
     orientations = np.zeros((len(q), 2, 3, 3))
+    damping = (LIFT_DAMPING * robot.scale.length) ** 2 * np.eye(6)  # TALOS's, scaled to the robot
     for k, qk in enumerate(q):
         pin.computeJointJacobians(model, data, qk)
         pin.updateFramePlacements(model, data)
@@ -145,8 +146,7 @@ def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
             J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL_WORLD_ALIGNED)
             J_leg = J[:, [6 + i for i in chain]]
             # damped least squares: a stretched knee cannot shorten the leg at first order
-            damping = LIFT_DAMPING * robot.scale.length
-            lifts[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + damping**2 * np.eye(6), LIFT)
+            lifts[k, j, chain] = J_leg.T @ np.linalg.solve(J_leg @ J_leg.T + damping, LIFT)
             moments[k, j, chain] = -J_leg[3:5].T
             orientations[k, j] = data.oMf[robot.foot_frames[side]].rotation
     return lifts, moments, orientations
