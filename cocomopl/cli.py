@@ -172,6 +172,13 @@ def cmd_robot_check(args):
     return check_robot(args.robot, args.png)
 
 
+def cmd_robot_bootstrap(args):
+    from cocomopl.bootstrap import bootstrap_robot
+
+    return bootstrap_robot(args.robot, args.out, workers=args.workers, scheduler=args.scheduler,
+                           video=not args.no_video, progress=not args.json, command=args.command_line)
+
+
 def cmd_export_model(args):
     from cocomopl.export.mjcf import mesh_folder
     from cocomopl.jobs import export_model_file
@@ -381,6 +388,7 @@ def _simulation_parsers(sub) -> None:
 
 
 def _tool_parsers(sub) -> None:
+    from cocomopl import options as o
     from cocomopl.export.mjcf import MODEL_FORMATS
     from cocomopl.export.seqplay import FORMATS
     from cocomopl.robot import DEFAULT_ROBOT
@@ -416,6 +424,16 @@ def _tool_parsers(sub) -> None:
     check.add_argument("robot", metavar="NAME|FILE.json", help="bundled robot name or robot description file")
     check.add_argument("--png", metavar="FILE.png", help="also draw the posture and its soles")
     check.set_defaults(func=cmd_robot_check)
+    bootstrap = robot.add_parser("bootstrap", help="from a robot's description to a walking report: solve its default "
+                                 "dataset, check it, train, walk; resumable (docs/robots.md#bootstrap)")
+    bootstrap.add_argument("robot", metavar="NAME|FILE.json", help="bundled robot name or robot description file")
+    bootstrap.add_argument("--out", required=True, metavar="DIR",
+                           help="the folder of dataset.h5, model.npz and the walk report walk/; run again to resume")
+    bootstrap.add_argument("--workers", type=o.workers, metavar="N",
+                           help="local worker processes (default: one per core)")
+    o.scheduler_option(bootstrap)
+    bootstrap.add_argument("--no-video", action="store_true", help="skip the walk's MP4 (saves about 15 s)")
+    bootstrap.set_defaults(func=cmd_robot_bootstrap)
 
     plot = sub.add_parser("plot", help="PNG plots of one motion: joints, ZMP, contact forces, torques")
     plot.add_argument("file", metavar="MOTION.h5", help="motion or dataset HDF5 file")

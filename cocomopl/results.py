@@ -624,6 +624,43 @@ class RobotCheck(Result):
 
 
 @dataclass
+class StageRecord(Result):
+    """One stage of ``robot bootstrap``: its output, whether it ran or its output was kept, its wall time."""
+
+    stage: str
+    output: str
+    status: str  # "run", or "kept": its output was there already, made from the stage before
+    wall_time_s: float
+
+
+@dataclass
+class BootstrapReport(Result):
+    """``robot bootstrap``: each stage's record, the walking report, and the dataset's wall
+    time projected to clusters of N workers (:func:`cocomopl.bootstrap.dataset_projection`)."""
+
+    robot: str
+    folder: str
+    stages: list[StageRecord]
+    check: bool
+    walk: WalkReport
+    dataset_projection_s: dict[int, float] | None
+    wall_time_s: float
+
+    def to_table(self) -> str:
+        lines = [f"robot {self.robot} bootstrapped in {self.folder}/ in {self.wall_time_s / 60:.1f} min"]
+        lines += [f"  {s.stage:8s} {s.status:5s} {s.wall_time_s:8.1f} s  {s.output}" for s in self.stages]
+        if self.dataset_projection_s:
+            lines.append("the dataset on N workers (projected from this run): " + ", ".join(
+                f"{n}: {seconds / 60:.1f} min" for n, seconds in self.dataset_projection_s.items()))
+        lines += ["", self.walk.to_table()]
+        return "\n".join(lines)
+
+    @property
+    def exit_code(self) -> int:
+        return self.walk.exit_code
+
+
+@dataclass
 class PlotReport(Result):
     """``plot``: the PNGs written."""
 

@@ -18,7 +18,7 @@ ROOT = PACKAGE.parent
 CORE = {"cocomopl", "errors", "motion", "motion_file", "validation", "provenance", "robot", "gait", "kinematics", "dynamics",
         "analysis", "data", "planning"}
 STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "requests", "results", "pipeline",
-          "jobs", "options", "cli", "__main__"]
+          "jobs", "bootstrap", "options", "cli", "__main__"]
 
 
 def layer(path: Path) -> str:

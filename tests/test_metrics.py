@@ -429,3 +429,15 @@ def test_html_viewer_script_draws_plays_and_scrubs(robot, oc_step, tmp_path):
     assert np.all((figure > 0) & (figure < [800, 600]))
     assert out["played"].startswith("t = 0.500 s (21/")  # 0.5 s of playback at 40 fps
     assert out["scrubbed"].startswith("t = 0.075 s (4/") and out["button"] == "play"
+
+
+def test_a_point_outside_a_polygon_is_moved_to_its_nearest_boundary_point_and_inset():
+    from cocomopl.analysis.feasibility import nearest_inside, polygon_margin
+
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])  # counter-clockwise
+    inside = np.array([0.3, 0.6])
+    assert nearest_inside(square, inside, 0.01) is inside
+    moved = nearest_inside(square, np.array([0.4, -0.5]), 0.0)
+    assert moved == pytest.approx([0.4, 0.0]) and polygon_margin(square, moved) == pytest.approx(0.0, abs=1e-15)
+    corner = nearest_inside(square, np.array([2.0, 3.0]), 0.01)  # nearest to the corner (1, 1)
+    assert np.linalg.norm(corner - [1.0, 1.0]) == pytest.approx(0.01) and polygon_margin(square, corner) > 0

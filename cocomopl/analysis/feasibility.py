@@ -40,18 +40,31 @@ FORCE_RESOLUTION = 1e-2  # 1e-5 of TALOS's weight
 
 def support_polygon(robot: Robot, q: np.ndarray, contact: np.ndarray) -> np.ndarray:
     """Corners (m, 2) of the convex hull of the soles in contact, counter-clockwise."""
-    from scipy.spatial import ConvexHull
-
     model, data = robot.model, robot.model.createData()
     pin.framesForwardKinematics(model, data, q)
-    points = []
-    for j, side in enumerate(SIDES):
-        if contact[j]:
-            M = data.oMf[robot.foot_frames[side]]
-            for c in robot.sole.corners():
-                points.append((M.rotation @ np.array([c[0], c[1], 0.0]) + M.translation)[:2])
-    points = np.array(points)
+    return soles_polygon(robot, [data.oMf[robot.foot_frames[side]] for j, side in enumerate(SIDES) if contact[j]])
+
+
+def soles_polygon(robot: Robot, placements: list[pin.SE3]) -> np.ndarray:
+    """Corners (m, 2) of the convex hull of the soles at ``placements`` (world), counter-clockwise."""
+    from scipy.spatial import ConvexHull
+
+    points = np.array([(M.rotation @ np.array([c[0], c[1], 0.0]) + M.translation)[:2]
+                       for M in placements for c in robot.sole.corners()])
     return points[ConvexHull(points).vertices]
+
+
+def nearest_inside(polygon: np.ndarray, point: np.ndarray, inset: float = 0.0) -> np.ndarray:
+    """``point`` (2,) if it lies inside the convex ``polygon``, else the polygon's nearest
+    boundary point moved ``inset`` (m) towards the polygon's centre."""
+    if polygon_margin(polygon, point) >= 0.0:
+        return point
+    starts, edges = polygon, np.roll(polygon, -1, axis=0) - polygon
+    along = np.clip(np.einsum("ij,ij->i", point[None, :] - starts, edges) / np.einsum("ij,ij->i", edges, edges), 0, 1)
+    candidates = starts + along[:, None] * edges
+    nearest = candidates[np.argmin(np.linalg.norm(candidates - point[None, :], axis=1))]
+    inward = polygon.mean(axis=0) - nearest
+    return nearest + inset * inward / np.linalg.norm(inward)
 
 
 def polygon_margin(polygon: np.ndarray, point: np.ndarray) -> float:

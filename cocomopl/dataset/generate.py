@@ -13,6 +13,7 @@ import concurrent.futures as cf
 import contextlib
 import hashlib
 import json
+import math
 import multiprocessing
 import os
 import shutil
@@ -60,6 +61,54 @@ class JobResult:
     motions: dict = field(default_factory=dict)
     failed: dict = field(default_factory=dict)
     walk: np.ndarray | None = None  # a length job's warm-up walk (states): the next length continues from it
+
+
+class TimeLeft:
+    """The time a dataset still needs, estimated as it is solved (for the progress bar).
+
+    A rate of OCPs would mislead: a length's OCPs finish together after minutes (once both
+    sweeps have solved it) and transitions in seconds.  So the lengths left take the pace of
+    the lengths' work done so far, and each transition left the mean solve time of the
+    transitions solved so far (before the first, of the lengths' OCPs), shared by the workers.
+    """
+
+    def __init__(self, *, transitions: int, workers: int | None):
+        self.transitions_left, self.workers = transitions, workers
+        self.started = time.perf_counter()
+        self.fraction, self.lengths_s = 0.0, 0.0
+        self.times: dict[str, list[float]] = {"length": [], "transition": []}
+
+    def lengths_done(self, fraction: float) -> None:
+        """The lengths' work is ``fraction`` done (1: all of it)."""
+        self.fraction = fraction
+        self.lengths_s = time.perf_counter() - self.started
+
+    def solved(self, kind: str, solve_time_s: float | None) -> None:
+        """An OCP of ``kind`` finished (``solve_time_s`` None: it failed)."""
+        group = "transition" if kind == "transition" else "length"
+        if group == "transition":
+            self.transitions_left = max(0, self.transitions_left - 1)
+        if solve_time_s is not None:
+            self.times[group].append(solve_time_s)
+
+    def seconds(self) -> float | None:
+        """The estimate in s, or None before anything is known to estimate from (or with an
+        unknown number of workers, a Dask cluster's, while transitions are left)."""
+        if self.fraction < 1.0:
+            if self.fraction == 0.0:
+                return None
+            lengths = self.lengths_s * (1.0 - self.fraction) / self.fraction
+        else:
+            lengths = 0.0
+        times = self.times["transition"] or self.times["length"]
+        if self.transitions_left and (not times or self.workers is None):
+            return None
+        per = float(np.mean(times)) if times else 0.0
+        return lengths + per * math.ceil(self.transitions_left / (self.workers or 1))
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
 
 
 def length_job(
@@ -394,8 +443,9 @@ def generate(
         reused = len(done)
         start = time.perf_counter()
         where = f"on {workers} local processes" if not scheduler else "on the Dask cluster"
-        failed, swept = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
-                                       progress, walk_guesses, continuation=continuation)
+        failed, swept, phases = _solve_missing(executor, robot_name, settings, specs, done, parts, attrs, where,
+                                       progress, walk_guesses, continuation=continuation,
+                                       workers=None if scheduler else workers)
         wall = time.perf_counter() - start
         if not done:  # a dataset of no motion is of no use, and would pass `dataset check`
             raise Error(
@@ -409,7 +459,7 @@ def generate(
                                        [list(as_footstep(a)), list(as_footstep(b))] for a, b in extra_transitions],
                "ocps": [s.name for s in specs], "failed": failed, "all_converged": not failed,
                "settings": settings.as_dict(), "command": command, "wall_time_s": wall,
-               "continuation": swept,
+               "continuation": swept, "phase_wall_time_s": phases, "resumed_ocps": reused,
                "workers": 0 if scheduler else workers, "scheduler": scheduler or "local processes", **(record or {})}
         motions = _write_dataset(output, robot, specs, done, run)
     if not failed:
@@ -438,34 +488,49 @@ def _solve_missing(
     walk_guesses: dict[float, tuple] | None = None,
     *,
     continuation: bool = True,
-) -> tuple[dict[str, list], dict]:
+    workers: int | None = None,
+) -> tuple[dict[str, list], dict, dict[str, float]]:
     """Solve the ``specs`` not in ``done``, adding each converged one to ``done`` and saving
     it at once in ``parts`` (with ``attrs``): the lengths' steps by continuation
     (:func:`solve_by_continuation`, or each from its own guess), then the transitions.  Returns the attempts of those
-    that failed and the continuation's record."""
+    that failed, the continuation's record, and the wall time in s of the lengths' work and of
+    the transitions'."""
     from tqdm import tqdm
 
     failed: dict[str, list] = {}
-    # no ETA: a length's three OCPs finish together after minutes, transitions in seconds
     bar = tqdm(total=len(specs), initial=len(done), desc="OCPs solved", disable=not progress, file=sys.stderr,
                bar_format="{desc}: {n_fmt}/{total_fmt} |{bar}| {elapsed} elapsed{postfix}")
-    bar.set_postfix_str(where, refresh=False)
+    transitions = [s for s in specs if s.kind == "transition" and s not in done]
+    left = TimeLeft(transitions=len(transitions), workers=workers)
+
+    def show() -> None:
+        eta = left.seconds()
+        bar.set_postfix_str(where + ("" if eta is None else f", about {_minutes(eta)} left"))
+
+    show()
 
     def note(line: str) -> None:
         if progress:
             bar.write(line, file=sys.stderr)
+
+    def advanced(fraction: float) -> None:
+        left.lengths_done(fraction)
+        show()
 
     def collect_one(result: JobResult) -> None:
         for spec, motion in result.motions.items():
             write_part(parts, spec, motion, attrs=attrs)
             done[spec] = motion
             solver = motion.solution.solver
+            left.solved(spec.kind, solver["solve_time_s"])
             note(f"solved {spec.name} in {solver['solve_time_s']:.1f} s ({solver['iterations']} iterations)")
             bar.update(1)
         for name, attempts in result.failed.items():
             failed[name] = attempts
+            left.solved("transition" if name.startswith("transition") else "length", None)
             note(f"did not converge: {name} after {len(attempts)} attempts")
             bar.update(1)
+        show()
 
     def collect(futures) -> None:
         for future in cf.as_completed(list(futures)):
@@ -483,7 +548,8 @@ def _solve_missing(
             record = _solve_from_guesses(executor, robot_name, settings, todo, done, collect, walk_guesses or {})
         else:
             record = solve_by_continuation(executor, robot_name, settings, todo=todo, done=done, collect=collect_one,
-                                           note=note)
+                                           note=note, advanced=advanced)
+        advanced(1.0)
         cyclic = {s.start_footstep: m for s, m in done.items() if s.kind == "cyclic"}
         futures = {}
         for spec in specs:
@@ -499,7 +565,8 @@ def _solve_missing(
         collect(futures)
     finally:
         bar.close()
-    return failed, record
+    phases = {"lengths": left.lengths_s, "transitions": time.perf_counter() - left.started - left.lengths_s}
+    return failed, record, phases
 
 
 SWEEPS = ("ascending", "descending")
@@ -507,7 +574,8 @@ SWEEPS = ("ascending", "descending")
 
 def solve_by_continuation(executor: cf.Executor, robot_name: str, settings: OCPSettings, *, todo: dict,
                           done: dict[StepSpec, Motion], collect: Callable[[JobResult], None],
-                          note: Callable[[str], None] = lambda line: None) -> dict:
+                          note: Callable[[str], None] = lambda line: None,
+                          advanced: Callable[[float], None] = lambda fraction: None) -> dict:
     """Solve the missing ``todo[L]`` kinds of each length (or footstep, by its
     :attr:`~cocomopl.motion.Footstep.gait_key`) by continuation, and pass each length's chosen
     result to ``collect``.
@@ -521,7 +589,8 @@ def solve_by_continuation(executor: cf.Executor, robot_name: str, settings: OCPS
     (:func:`~cocomopl.dataset.design.nearest_neighbour_path`).  Returns, per length (mm; a footstep's
     :attr:`~cocomopl.motion.Footstep.label`), each sweep's summed cost and the RMS difference (rad) of their cyclic steps' joints,
     and the sweep chosen.  ``note`` gets a line as each sweep finishes a length: a length's
-    OCPs are only collected once both sweeps have solved it, halfway through.
+    OCPs are only collected once both sweeps have solved it, halfway through.  ``advanced``
+    gets the fraction of the sweeps' work done, after each length of each sweep.
     """
     keys = {as_footstep(key): key for key in todo}
     order = [keys[f] for f in nearest_neighbour_path(keys)]
@@ -541,13 +610,15 @@ def solve_by_continuation(executor: cf.Executor, robot_name: str, settings: OCPS
 
     for sweep in chains:
         submit(sweep, 0, None)
-    record = {}
+    record, swept = {}, 0
     while pending:
         future = next(cf.as_completed(pending))
         sweep, i = pending.pop(future)
         L = chains[sweep][i]
         results[L][sweep] = job_result(future)
+        swept += 1
         note(f"{sweep} sweep: {as_footstep(L).label} solved ({i + 1} of {len(order)})")
+        advanced(swept / (len(order) * len(chains)))
         if i + 1 < len(order):
             submit(sweep, i + 1, results[L][sweep].walk)
         if len(results[L]) == len(chains):

@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
+from cocomopl.analysis.feasibility import nearest_inside, soles_polygon
 from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
 from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan, sole_poses
 from cocomopl.kinematics import flat_placement
@@ -26,6 +27,7 @@ from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
 from cocomopl.synthesis.upper_body_limits import limit_upper_body
 
 REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
+ZMP_INSET = 1e-4  # m inside the support polygon, where a reference ZMP outside it is moved: a 5 ms table stays inside
 
 
 
@@ -109,6 +111,23 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
 
 
 
+def zmp_in_support(robot: Robot, zmp: np.ndarray, ground: list[list]) -> np.ndarray:
+    """The predicted reference ZMP (n, 3), each sample that leaves the support polygon of its
+    soles on the ground (``ground``: per sample, each side's placement or None) moved to the
+    polygon's nearest point, :data:`ZMP_INSET` inside.
+
+    The primitives smooth the ZMP's jump at a touchdown, so the last sample before one can
+    lean towards the landing foot; on narrow soles (the G1's are 50 mm wide) that leaves the
+    stance sole, where no real ZMP can be.
+    """
+    out = zmp.copy()
+    for k, soles in enumerate(ground):
+        placed = [placement for placement in soles if placement is not None]
+        if placed:
+            out[k, :2] = nearest_inside(soles_polygon(robot, placed), zmp[k, :2], ZMP_INSET)
+    return out
+
+
 def _upper_body_within_limits(robot: Robot, t, q, contact, impacts, ground, zmp) -> tuple[np.ndarray, dict]:
     """The upper-body limit correction of a filtered walk.  The corrected arms move the ZMP
     (by up to 5 cm on random walks), so the dynamics filter runs again, briefly, to take that
@@ -183,7 +202,8 @@ def place_steps(robot: Robot, steps: list[PredictedStep], *, dt: float = 0.005,
         offset += t[-1]
         count += len(t)
         impacts.append(count - 1)
-    t, q, contact, zmp = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts), np.concatenate(zmps)
+    t, q, contact = np.concatenate(ts), np.concatenate(qs), np.concatenate(contacts)
+    zmp = zmp_in_support(robot, np.concatenate(zmps), ground)
     impacts = np.array(impacts[:-1], dtype=int)
     q, filter_errors, kept = dynamics_filter(robot, t, q, contact=contact, impacts=impacts, ground=ground, zmp_ref=zmp)
     q, upper_body = _upper_body_within_limits(robot, t, q, contact, impacts, ground, zmp)
