@@ -65,15 +65,17 @@ def test_the_projection_holds_the_measured_sweeps_and_shares_the_transitions(sma
                for n, seconds in projection.items())
 
 
-def test_the_time_left_takes_the_sweeps_pace_then_the_transitions_over_the_workers():
+def test_the_time_left_takes_the_sweeps_pace_then_the_transitions_own():
     left = TimeLeft(transitions=5, workers=2)
     assert left.seconds() is None  # nothing to estimate from
     left.started -= 10.0
-    left.lengths_done(0.25)
-    left.solved("cyclic", 4.0)
-    # 10 s for a quarter of the sweeps: 30 s more; 5 transitions of ~4 s on 2 workers: 3 rounds
-    assert left.seconds() == pytest.approx(30.0 + 3 * 4.0, rel=0.01)
-    left.lengths_done(1.0)
-    left.solved("transition", 2.0)
-    assert left.seconds() == pytest.approx(2 * 2.0)  # 4 left: 2 rounds of the transitions' own time
+    left.lengths_done(1, 4)
+    # 10 s for a quarter of the sweeps: 30 s more; a job of 2 x 10 s (two sweeps side by side),
+    # a quarter of it per transition, 5 transitions on 2 workers: 3 rounds of 5 s
+    assert left.seconds() == pytest.approx(30.0 + 3 * 5.0, rel=0.01)
+    left.lengths_done(4, 4)
+    left.started -= 6.0  # the transitions' phase: 6 s
+    left.transition_done()
+    left.transition_done()
+    assert left.seconds() == pytest.approx(3 * 6.0 / 2, rel=0.01)  # 3 left at 3 s each, as measured
     assert TimeLeft(transitions=3, workers=None).seconds() is None  # a cluster of unknown size
