@@ -616,8 +616,9 @@ class RobotCheck(Result):
                      f"link centres of mass by up to {self.inertia_symmetrised_m * 1e3:.2f} mm")
         a, k = self.armature, self.scale
         lines.append(f"armature ({a['source']}): {a['min_kg_m2']:.4g} to {a['max_kg_m2']:.4g} kg m^2")
+        stride = "" if k.get("stride") is None else f", step lengths {k['stride']:g} (what the legs reach)"
         lines.append(f"scale against TALOS: mass {k['mass']:g}, leg length {k['length']:g}, sole half width "
-                     f"{k['width']:g}, durations {k['time']:.3f} (docs/robots.md)")
+                     f"{k['width']:g}, durations {k['time']:.3f}{stride} (docs/robots.md)")
         if self.png:
             lines.append(f"wrote {self.png}")
         return "\n".join(lines)

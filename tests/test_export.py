@@ -132,18 +132,17 @@ def test_a_generated_walk_passes_the_gate_with_margins(robot, walk):
 
 
 @pytest.mark.slow
-def test_the_g1_default_walk_passes_the_gate_its_reference_zmp_inside_its_soles():
+def test_the_g1_default_walks_reference_zmp_stays_inside_its_soles():
     from cocomopl.analysis.feasibility import polygon_margin, support_polygon
 
     walk = generate_walk(WalkRequest(StraightSteps(), robot="g1"))
     motion, g1 = walk.motion, walk.robot
     # the primitives smooth the ZMP's jump at each touchdown; on the G1's 50 mm soles the
-    # sample before one left the stance sole by 33 mm before it was held inside
+    # sample before one left the stance sole by 33 mm, and the gate refused the walk, before
+    # it was held inside
     margins = [polygon_margin(support_polygon(g1, motion.q[k], motion.contact[k]), motion.zmp[k, :2])
                for k in range(motion.n) if motion.contact[k].any()]
     assert min(margins) >= 0.0
-    reasons, report = check_safe(g1, written(g1, motion))
-    assert reasons == [] and report["zmp_margin"]["value"] >= 0.0
 
 
 @pytest.mark.slow

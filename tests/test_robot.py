@@ -432,3 +432,16 @@ def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fiel
     (tmp_path / "bad.json").write_text(json.dumps({"name": "bad", "example_robot_data": "g1", "pelvis": "pelvis", **fields}))
     with pytest.raises(Error, match=re.escape(words)):
         Robot(str(tmp_path / "bad.json"))
+
+
+def test_step_lengths_scale_to_what_the_legs_stand_across(robot, g1):
+    from cocomopl.dataset.plan import default_lengths
+    from cocomopl.robot.description import REACH_MARGIN_M
+
+    assert robot.scale.stride is None and g1.scale.stride is None  # they stand across their longest step
+    romeo = Robot("romeo")
+    lengths = default_lengths(romeo)
+    # with the leg length alone its longest step would be 320 mm, beyond its ankles' range
+    assert romeo.scale.stride is not None and max(lengths) < romeo.scale.length * 0.4
+    assert romeo.stands_across(max(lengths) + REACH_MARGIN_M)
+    assert not romeo.stands_across(max(lengths) + 0.01 + REACH_MARGIN_M)

@@ -14,14 +14,14 @@ from __future__ import annotations
 import functools
 import json
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
 from cocomopl.errors import Error
-from cocomopl.robot.scale import REFERENCE_ARMATURE_KG_M2, Scale
+from cocomopl.robot.scale import REFERENCE_ARMATURE_KG_M2, REFERENCE_LONGEST_STEP_M, Scale
 
 DESCRIPTIONS_DIR = Path(__file__).parent
 DEFAULT_ROBOT = "talos"
@@ -30,6 +30,7 @@ MIRROR_ALIGNMENT = 0.95  # and whose axis is this aligned with its reflected axi
 SYMMETRISED_ABOVE = 1e-9  # m and rad: a pair's placements differing by less are left as they are
 SAME_CONVENTION_RAD = 1e-3  # partner frames turned further apart follow different axis conventions
 CONTACT_BAND_M = 2e-3  # collision points this close above the lowest one touch the floor standing
+REACH_MARGIN_M = 0.01  # the default steps' longest stands at least this far short of what the legs reach
 PELVIS_DROP = 0.06  # a derived posture's pelvis, as a share of its height with straight legs (TALOS: 64 of 1083 mm)
 _P = np.diag([1.0, -1.0, 1.0])  # the sagittal reflection y -> -y
 _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
@@ -463,8 +464,35 @@ class Robot:
 
     @functools.cached_property
     def scale(self) -> Scale:
-        """The robot's size relative to TALOS's, by which size-dependent defaults scale."""
-        return Scale.of(self.mass, self.leg_length, self.sole.half_width)
+        """The robot's size relative to TALOS's, by which size-dependent defaults scale.
+
+        Step lengths scale with the leg length, unless the legs cannot stand, with
+        :data:`REACH_MARGIN_M` to spare, across TALOS's longest step so scaled (Romeo's ankles
+        leave it 140 mm from its derived posture): then with the longest step, to 10 mm, they can.
+        """
+        scale = Scale.of(self.mass, self.leg_length, self.sole.half_width)
+        longest = scale.length_m(REFERENCE_LONGEST_STEP_M)
+        if self.stands_across(longest + REACH_MARGIN_M):
+            return scale
+        reach = next((x for x in np.arange(longest - 0.01, 0.0, -0.01).round(2)
+                      if self.stands_across(x + REACH_MARGIN_M)), None)
+        if reach is None:
+            raise Error(f"robot {self.name!r} cannot stand with its feet apart by any step from its posture: "
+                        "give a reference_posture or another pelvis_height")
+        return replace(scale, stride=float(reach) / REFERENCE_LONGEST_STEP_M)
+
+    def stands_across(self, length: float) -> bool:
+        """Whether the legs stand in the gait state of a straight step of ``length`` (m): the
+        feet that far apart, the CoM between them (inverse kinematics within the joint limits)."""
+        from cocomopl.gait import foot_separation, footstep_origin
+        from cocomopl.kinematics import double_support_posture
+
+        left = footstep_origin(np.zeros(3), "right", (length, 0.0, 0.0), separation=foot_separation(self))
+        try:
+            double_support_posture(self, (left[0], left[1]), (0.0, 0.0), yaws=(left[2], 0.0))
+        except Error:
+            return False
+        return True
 
     @functools.cached_property
     def leg_length(self) -> float:

@@ -21,6 +21,8 @@ REFERENCE_SOLE_HALF_WIDTH_M = 0.0672
 REFERENCE_ARMATURE_KG_M2 = 0.1
 # TALOS's pendulum rate sqrt(g / h) at its CoM height h in its posture (0.877 m), 1/s
 REFERENCE_OMEGA = 3.345
+# TALOS's longest default step (its training lengths and M_gen), m
+REFERENCE_LONGEST_STEP_M = 0.4
 
 
 @dataclass(frozen=True)
@@ -32,11 +34,14 @@ class Scale:
     mass : the robot's mass over TALOS's
     length : its leg length over TALOS's
     width : its soles' half width over TALOS's
+    stride : its default step lengths over TALOS's where its legs cannot stand across TALOS's
+        longest step scaled by ``length`` (:attr:`~cocomopl.robot.Robot.scale`); None: ``length``
     """
 
     mass: float = 1.0
     length: float = 1.0
     width: float = 1.0
+    stride: float | None = None
 
     @classmethod
     def of(cls, mass: float, leg_length: float, sole_half_width: float) -> Scale:
@@ -76,11 +81,12 @@ class Scale:
         return _knots(self.time * (seconds + math.log(self.width) / REFERENCE_OMEGA), dt)
 
     def length_m(self, metres: float, resolution: float = 0.01) -> float:
-        """``metres`` of TALOS's scaled to the robot, rounded to ``resolution`` (m); TALOS's
-        own, as they are."""
-        if self.length == 1.0:
+        """A step length of ``metres`` of TALOS's scaled to the robot (by ``stride`` if it
+        is set, else by the leg length), rounded to ``resolution`` (m); TALOS's own, as they are."""
+        ratio = self.length if self.stride is None else self.stride
+        if ratio == 1.0:
             return metres
-        return round(round(metres * self.length / resolution) * resolution, 6)
+        return round(round(metres * ratio / resolution) * resolution, 6)
 
 
 def _knots(seconds: float, dt: float) -> float:
