@@ -410,6 +410,7 @@ def train_model(
         "versions": provenance["versions"],
         "robot": steps.source["robot"],
         **({"robot_description": steps.source["robot_description"]} if steps.source["robot_description"] else {}),
+        **({"robot_model": steps.source["robot_model"]} if steps.source["robot_model"] else {}),
         # the dataset by name and checksum: its path would name a folder of this machine
         "dataset": {"created": steps.source["created"], **provenance["inputs"]["dataset"], "steps": len(steps)},
         "selection": rows,

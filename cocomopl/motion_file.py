@@ -473,6 +473,9 @@ def write_motions(path: str | Path, motions: dict[str, Motion], attrs: dict, *, 
         described = _robot_description(motions.values())
         if described is not None:
             f.attrs["robot_description"] = described
+        fingerprint = _robot_fingerprint(motions.values())
+        if fingerprint is not None and "robot_model" not in attrs:
+            f.attrs["robot_model"] = fingerprint
         group = f.create_group("motions")
         for name, motion in motions.items():
             write_motion_group(group.create_group(name), motion, None if signals is None else signals.get(name))
@@ -524,6 +527,24 @@ def _robot_description(motions) -> str | None:
     name = names.pop() if len(names) == 1 else None
     described = None if name is None or name in available_robots() else built_description(name)
     return None if described is None else json.dumps(described, sort_keys=True)
+
+
+def _robot_fingerprint(motions) -> str | None:
+    """The fingerprint of the robot of ``motions`` (:attr:`~cocomopl.robot.Robot.fingerprint`)
+    if they share one and it was built in this process."""
+    from cocomopl.robot.description import built_fingerprint
+
+    names = {motion.robot for motion in motions}
+    return built_fingerprint(names.pop()) if len(names) == 1 else None
+
+
+def check_robot_model(recorded, robot, what: str = "it") -> None:
+    """An :class:`Error` if ``recorded``, the fingerprint a file or model records (None for
+    one made before files recorded it), is not ``robot``'s: it was made for another model of
+    the robot (another description, URDF or joints under the same name)."""
+    if recorded is not None and recorded != robot.fingerprint:
+        raise Error(f"{what} was made for another model of {robot.name} (its description, URDF or joints differ "
+                    "from the one loaded here)")
 
 
 def load_robot(name: str, description: str | None = None):
@@ -591,6 +612,7 @@ def read_motions(path: str | Path, *, finite: bool = True, dataset: bool = False
             if not names:
                 raise Error("it holds no motions")
             robot = robot or load_robot(_file_robot(f, names), _recorded_description(f))
+            check_robot_model(attrs.get("robot_model"), robot)
             motions, found = {}, {}
             for name in names:
                 try:
@@ -623,6 +645,7 @@ def read_motion(path: str | Path, name: str | None = None) -> Motion:
             raise Error(f"{path} has no motion {name!r}; it has: {', '.join(names)}")
         try:
             robot = load_robot(_file_robot(f, [name]), _recorded_description(f))
+            check_robot_model(file_attrs(f).get("robot_model"), robot, "the file")
             return read_motion_group(f["motions"][name], robot)
         except Error as exc:
             raise Error(f"{path}: motion {name}: {exc}") from None

@@ -445,3 +445,26 @@ def test_step_lengths_scale_to_what_the_legs_stand_across(robot, g1):
     assert romeo.scale.stride is not None and max(lengths) < romeo.scale.length * 0.4
     assert romeo.stands_across(max(lengths) + REACH_MARGIN_M)
     assert not romeo.stands_across(max(lengths) + 0.01 + REACH_MARGIN_M)
+
+
+@pytest.mark.slow  # runs the command line
+def test_files_record_the_robots_fingerprint_and_another_models_files_are_refused(robot, tmp_path):
+    import h5py
+
+    from cocomopl.data import dataset_path, model_path
+    from cocomopl.motion_file import read_motions
+    from cocomopl.primitives.model_file import load_model, model_robot
+
+    from conftest import assert_one_line_error, run_cli
+
+    path = tmp_path / "walk.h5"
+    assert run_cli("generate", "--lengths-mm", "200,200", "--out", str(path)).returncode == 0
+    with h5py.File(path, "a") as f:
+        assert f.attrs["robot_model"] == robot.fingerprint  # a digest of the model it was made with
+        f.attrs["robot_model"] = "0" * 16  # as if the URDF or the description had changed since
+    assert_one_line_error(run_cli("dataset", "check", str(path)), "made for another model of talos")
+    read_motions(dataset_path())  # the bundled files predate the fingerprint: read as they are
+    model = load_model(model_path())
+    model.metadata_["robot_model"] = "0" * 16
+    with pytest.raises(Error, match="the model was made for another model of talos"):
+        model_robot(model)

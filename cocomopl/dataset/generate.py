@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import hashlib
 import json
 import math
 import multiprocessing
@@ -173,26 +172,10 @@ def check_workers(workers: int) -> int:
     return workers
 
 
-def robot_fingerprint(robot: Robot) -> str:
-    """A digest of what the OCPs see of ``robot``: its description (without the paths of its
-    files, which change when a checkout moves) and the numbers of its reduced model, so that
-    an edited description or URDF under the same robot name tells apart."""
-    description = {key: value for key, value in robot.description.items() if key not in ("urdf", "srdf")}
-    digest = hashlib.sha256(json.dumps(description, sort_keys=True).encode())
-    digest.update(json.dumps(list(robot.model.names)).encode())
-    numbers = [robot.q_ref, robot.q_lower, robot.q_upper, robot.v_max, robot.tau_max]
-    numbers += [np.r_[body.mass, body.lever, body.inertia.ravel()] for body in robot.model.inertias]
-    numbers += [placement.homogeneous for placement in robot.model.jointPlacements]
-    numbers += [frame.placement.homogeneous for frame in robot.model.frames]
-    for values in numbers:  # rounded: a digest of the values, not of their last bits
-        digest.update(np.round(np.asarray(values, dtype=float), 9).tobytes())
-    return digest.hexdigest()[:16]
-
-
 def part_attrs(settings: OCPSettings, robot: Robot) -> dict:
     """The file attributes of a part: what a rerun compares before it reuses the part."""
     return {"content": "part", "settings": settings.as_dict(), "robot": robot.name,
-            "robot_model": robot_fingerprint(robot)}
+            "robot_model": robot.fingerprint}
 
 
 def _part_path(parts: Path, spec: StepSpec) -> Path:

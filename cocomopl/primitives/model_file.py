@@ -669,10 +669,11 @@ def model_metadata(path: str | Path) -> dict:
 def model_robot(model):
     """The robot a loaded model is for, from its metadata: its recorded description if it has
     one (a robot that is not bundled), else its bundled name (default TALOS)."""
-    from cocomopl.motion_file import load_robot
+    from cocomopl.motion_file import check_robot_model, load_robot
     from cocomopl.robot import DEFAULT_ROBOT
 
     meta = getattr(model, "metadata_", None) or {}
     described = meta.get("robot_description")
-    return load_robot(meta.get("robot") or DEFAULT_ROBOT,
-                      None if described is None else json.dumps(described, sort_keys=True))
+    robot = load_robot(meta.get("robot") or DEFAULT_ROBOT, None if described is None else json.dumps(described, sort_keys=True))
+    check_robot_model(meta.get("robot_model"), robot, "the model")
+    return robot

@@ -119,7 +119,7 @@ def load_training_steps(path) -> TrainingSteps:
         phase_time.append(signals["phase_time"])
         durations.append(_phase_durations(signals["t"], signals["phase_time"]))
     source = {"path": str(path), "created": str(attrs.get("created", "")), "robot": next(iter(motions.values())).robot,
-              "robot_description": attrs.get("robot_description")}
+              "robot_description": attrs.get("robot_description"), "robot_model": attrs.get("robot_model")}
     return TrainingSteps(specs, values, phase_time, durations, signal_names, source)
 
 

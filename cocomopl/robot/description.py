@@ -12,6 +12,7 @@ of JSON.
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import re
 from dataclasses import dataclass, replace
@@ -265,12 +266,22 @@ def _add_sole_frame(model: pin.Model, side: str, joint: int, placement: pin.SE3)
 
 
 _BUILT: dict[str, dict] = {}  # the description of each robot built in this process, by name
+_FINGERPRINTS: dict[str, set[str]] = {}  # the fingerprints of the robots built of each name
 
 
 def built_description(name: str) -> dict | None:
     """The description of the robot named ``name`` last built in this process (None if none
     was): what the files written for it record, so that they are read back without it."""
     return _BUILT.get(name)
+
+
+def built_fingerprint(name: str) -> str | None:
+    """The :attr:`Robot.fingerprint` of the robot named ``name`` built in this process: what
+    the files written for it record, to be read only with that model.  None if no robot of
+    that name was built, or models of it that differ were (then a file's motions do not say
+    which they were made with)."""
+    built = _FINGERPRINTS.get(name, set())
+    return next(iter(built)) if len(built) == 1 else None
 
 
 def joint_axis(model: pin.Model, jid: int, robot: str = "") -> np.ndarray:
@@ -433,6 +444,7 @@ class Robot:
             self.q_ref = self._bent_knee_posture(desc.get("pelvis_height"), desc.get("foot_separation"))
         self.inertia_asymmetry = self._symmetrize_inertias() if symmetrize else 0.0
         self.armature_source = self._set_armature(desc.get("armature"))
+        _FINGERPRINTS.setdefault(self.name, set()).add(self.fingerprint)
 
     # ------------------------------------------------------------------ set-up helpers
     def _frame_id(self, name: str) -> int:
@@ -461,6 +473,23 @@ class Robot:
         # against the servo's gains: without it, G1's stance foot chatters on the floor
         self.model.armature[v] = REFERENCE_ARMATURE_KG_M2 * self.scale.mass * self.scale.length**2
         return "derived"
+
+    @functools.cached_property
+    def fingerprint(self) -> str:
+        """A digest of the model as built: its description (without the paths of its files,
+        which change when a checkout moves) and the numbers of its reduced model (joint names,
+        limits, posture, inertias, placements, frames), so that an edited description or URDF
+        under the same robot name tells apart.  Every file made for the robot records it."""
+        description = {key: value for key, value in self.description.items() if key not in ("urdf", "srdf")}
+        digest = hashlib.sha256(json.dumps(description, sort_keys=True).encode())
+        digest.update(json.dumps(list(self.model.names)).encode())
+        numbers = [self.q_ref, self.q_lower, self.q_upper, self.v_max, self.tau_max]
+        numbers += [np.r_[body.mass, body.lever, body.inertia.ravel()] for body in self.model.inertias]
+        numbers += [placement.homogeneous for placement in self.model.jointPlacements]
+        numbers += [frame.placement.homogeneous for frame in self.model.frames]
+        for values in numbers:  # rounded: a digest of the values, not of their last bits
+            digest.update(np.round(np.asarray(values, dtype=float), 9).tobytes())
+        return digest.hexdigest()[:16]
 
     @functools.cached_property
     def scale(self) -> Scale:
