@@ -50,14 +50,15 @@ def bootstrap_robot(
 
     from cocomopl.dataset.plan import default_lengths
     from cocomopl.jobs import check_dataset_file, generate_dataset, train_model
-    from cocomopl.motion_file import writable_folder
+    from cocomopl.motion_file import writable_place
     from cocomopl.pipeline import walk_report
     from cocomopl.requests import StraightSteps, WalkRequest
     from cocomopl.robot import Robot
 
     started = time.perf_counter()
     description = Robot(robot)  # a bad description is refused before anything is written
-    out = writable_folder(Path(out_dir), f"the output folder {out_dir}")
+    # checked, not made: the first stage that writes makes it, so a refused run leaves no empty folder
+    out = writable_place(Path(out_dir), f"the output folder {out_dir}")
     dataset, model, report = out / "dataset.h5", out / "model.npz", out / "walk"
     lengths = default_lengths(description)
     finished = _finished_dataset(dataset, description, lengths)  # a file not to replace is refused before any work
@@ -103,6 +104,7 @@ def _finished_dataset(path: Path, robot, lengths: tuple[float, ...]) -> bool:
     refused (an :class:`Error`), not replaced: it may be a user's work.  A dataset with
     OCPs left out is solved again (the parts of its run resume it).
     """
+    from cocomopl.dataset.generate import settings_problem
     from cocomopl.motion_file import file_attrs, open_checked
     from cocomopl.ocp.settings import robot_settings
 
@@ -114,8 +116,7 @@ def _finished_dataset(path: Path, robot, lengths: tuple[float, ...]) -> bool:
     if attrs.get("content") != "dataset" or attrs.get("robot") != robot.name:
         raise Error(f"{path} is not a dataset of the robot {robot.name!r}: give another folder or remove it")
     same_lengths = [round(x, 6) for x in attrs.get("lengths_m", [])] == [round(x, 6) for x in lengths]
-    same_settings = {k: attrs.get("settings", {}).get(k) for k in expected} == expected
-    if not (same_lengths and same_settings):
+    if not same_lengths or settings_problem(attrs.get("settings"), expected):
         raise Error(f"{path} is a dataset of other lengths or OCP settings than the robot's defaults: give another "
                     "folder or remove it")
     return bool(attrs.get("all_converged"))

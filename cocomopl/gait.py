@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from cocomopl.errors import Error
+from cocomopl.kinematics import double_support_posture
 from cocomopl.motion import StepSpec
 from cocomopl.robot import Robot
 
@@ -63,6 +64,19 @@ def footstep_origin(landed: np.ndarray, side: str, footstep: Sequence[float], *,
     dx, dy = length, sign * (separation + width)
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([landed[0] - (c * dx - s * dy), landed[1] - (s * dx + c * dy), yaw])
+
+
+def gait_state_posture(robot: Robot, footstep: Sequence[float]) -> np.ndarray:
+    """The posture of the gait state S of ``footstep`` (length, width, turn): the right sole
+    at the origin, the left where the footstep leaves from, the CoM between them.
+
+    Raises
+    ------
+    Error
+        If the legs cannot stand so (:func:`~cocomopl.kinematics.double_support_posture`).
+    """
+    left = footstep_origin(np.zeros(3), "right", footstep, separation=foot_separation(robot))
+    return double_support_posture(robot, (left[0], left[1]), (0.0, 0.0), yaws=(left[2], 0.0))
 
 
 # What a footstep may ask of the robot (length, width in m; turn in rad).  Backward steps

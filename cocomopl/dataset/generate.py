@@ -30,8 +30,8 @@ from cocomopl.dataset.design import nearest_neighbour_path
 from cocomopl.dataset.plan import default_transitions, successors, training_specs
 from cocomopl.dataset.signals import training_signals
 from cocomopl.errors import Error
-from cocomopl.gait import check_footstep, foot_separation, footstep_origin
-from cocomopl.kinematics import check_reach, double_support_posture
+from cocomopl.gait import check_footstep, gait_state_posture
+from cocomopl.kinematics import check_reach
 from cocomopl.motion import Motion, StepSpec, as_footstep
 from cocomopl.motion_file import read_motions, writable_folder, write_motions
 from cocomopl.ocp.action_models import knee_bounds
@@ -187,7 +187,7 @@ def write_part(parts: Path, spec: StepSpec, motion: Motion, *, attrs: dict) -> N
     write_motions(_part_path(parts, spec), {spec.name: motion}, attrs)
 
 
-def _settings_problem(saved, current: dict) -> str | None:
+def settings_problem(saved, current: dict) -> str | None:
     """Why the settings ``saved`` with a part are not ``current``, or None."""
     if not isinstance(saved, dict):
         return "it records no OCP settings"
@@ -231,7 +231,7 @@ def _part_problem(path: Path, spec: StepSpec, expected: dict, robot: Robot) -> t
     if motion.steps != [spec]:
         return motion, f"it holds {motion.name}"
     current = json.loads(json.dumps(expected["settings"]))  # as read back: tuples are lists
-    problem = _settings_problem(attrs.get("settings"), current) or _robot_problem(attrs, expected, robot)
+    problem = settings_problem(attrs.get("settings"), current) or _robot_problem(attrs, expected, robot)
     return motion, problem or _solver_problem(motion)
 
 
@@ -266,7 +266,7 @@ def reusable_steps(path: str | Path, settings: OCPSettings, robot: Robot) -> dic
     motions, attrs = read_motions(path, dataset=True, robot=robot)
     if attrs.get("robot") not in (None, robot.name):
         raise Error(f"cannot reuse {path}: it is for the robot {attrs['robot']!r}, not {robot.name!r}")
-    problem = _settings_problem(attrs.get("settings"), json.loads(json.dumps(settings.as_dict())))
+    problem = settings_problem(attrs.get("settings"), json.loads(json.dumps(settings.as_dict())))
     if problem:
         raise Error(f"cannot reuse {path}: {problem}")
     return {m.steps[0]: m for m in motions.values() if m.steps[0].swing_side == "left"}
@@ -353,13 +353,10 @@ def check_stances(robot: Robot, lengths: tuple, settings: OCPSettings) -> None:
     knees cannot make."""
     footsteps = [as_footstep(f) for f in lengths]
     check_reach(robot, [abs(f.length) for f in footsteps])
-    separation = foot_separation(robot)
     for footstep in footsteps:
         if not footstep.straight:
             check_footstep(robot, "left", footstep)
-        # as the gait state S of the footstep stands
-        left = footstep_origin(np.zeros(3), "right", footstep, separation=separation)
-        double_support_posture(robot, (left[0], left[1]), (0.0, 0.0), yaws=(left[2], 0.0))
+        gait_state_posture(robot, footstep)
     knee_bounds(robot, settings.min_knee_flexion)
 
 

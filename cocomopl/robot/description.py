@@ -513,12 +513,10 @@ class Robot:
     def stands_across(self, length: float) -> bool:
         """Whether the legs stand in the gait state of a straight step of ``length`` (m): the
         feet that far apart, the CoM between them (inverse kinematics within the joint limits)."""
-        from cocomopl.gait import foot_separation, footstep_origin
-        from cocomopl.kinematics import double_support_posture
+        from cocomopl.gait import gait_state_posture
 
-        left = footstep_origin(np.zeros(3), "right", (length, 0.0, 0.0), separation=foot_separation(self))
         try:
-            double_support_posture(self, (left[0], left[1]), (0.0, 0.0), yaws=(left[2], 0.0))
+            gait_state_posture(self, (length, 0.0, 0.0))
         except Error:
             return False
         return True
