@@ -85,6 +85,7 @@ def gait_state_posture(robot: Robot, footstep: Sequence[float]) -> np.ndarray:
 # 25-degree turn steps out (``planning.goal.turn_step_out``), keep the stance hip's abduction
 # within its limits.  Inward steps and turns are bounded by the feet themselves:
 # ``check_footstep`` refuses a footstep whose soles come closer than ``FEET_GAP``.
+# These are TALOS's; another robot's are scaled by its size (``footstep_range``).
 FOOTSTEP_RANGE = {"length": (-0.15, 0.40), "width": (-0.05, 0.165), "turn": (-math.radians(25), math.radians(25))}
 FEET_GAP = 0.01  # m between the feet's meshes, both flat on the ground
 # How far past a bound of FOOTSTEP_RANGE a footstep still counts as on it: a footstep file's
@@ -101,24 +102,40 @@ TURN_SCALE = 0.63
 FOOTSTEP_METRIC = np.array([1.0, WIDTH_SCALE, TURN_SCALE])  # (length, width, turn) -> metres
 
 
-def within_range(key: str, value: float) -> bool:
-    """Whether a footstep's ``key`` ("length", "width" or "turn") is within ``FOOTSTEP_RANGE``,
-    give or take ``RANGE_ROUNDING``."""
-    low, high = FOOTSTEP_RANGE[key]
+def footstep_range(robot: Robot) -> dict[str, tuple[float, float]]:
+    """What a footstep may ask of ``robot``: (low, high) per ``"length"``, ``"width"`` (m) and
+    ``"turn"`` (rad).
+
+    ``FOOTSTEP_RANGE``'s lengths and widths scaled as the robot's step lengths
+    (:meth:`~cocomopl.robot.scale.Scale.length_m`: the leg length, or the stride the legs
+    stand across), to 10 and 5 mm; its turns as they are, since a hip's yaw range does not
+    grow with the leg.  TALOS's: ``FOOTSTEP_RANGE`` itself.
+    """
+    scale = robot.scale
+    length = tuple(scale.length_m(x) for x in FOOTSTEP_RANGE["length"])
+    width = tuple(scale.length_m(x, resolution=0.005) for x in FOOTSTEP_RANGE["width"])
+    return {"length": length, "width": width, "turn": FOOTSTEP_RANGE["turn"]}
+
+
+def within_range(key: str, value: float, limits: dict[str, tuple[float, float]] = FOOTSTEP_RANGE) -> bool:
+    """Whether a footstep's ``key`` ("length", "width" or "turn") is within ``limits``
+    (by default ``FOOTSTEP_RANGE``), give or take ``RANGE_ROUNDING``."""
+    low, high = limits[key]
     return low - RANGE_ROUNDING[key] <= value <= high + RANGE_ROUNDING[key]
 
 
 def check_footstep(robot: Robot, side: str, footstep: Sequence[float]) -> None:
     """An :class:`Error` unless sole ``side`` may land at the ``footstep`` (length, width, turn)
-    from the other: within ``FOOTSTEP_RANGE`` (give or take ``RANGE_ROUNDING``) and with the
-    feet's meshes ``FEET_GAP`` apart."""
+    from the other: within :func:`footstep_range` (give or take ``RANGE_ROUNDING``) and with
+    the feet's meshes ``FEET_GAP`` apart."""
     from cocomopl.kinematics import flat_placement, soles_distance
 
     length, width, turn = footstep
     asked = {"length": length, "width": width, "turn": turn}
+    limits = footstep_range(robot)
     for key, value in asked.items():
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and within_range(key, value)):
-            low, high = FOOTSTEP_RANGE[key]
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and within_range(key, value, limits)):
+            low, high = limits[key]
             unit, scale = ("deg", math.degrees(1)) if key == "turn" else ("mm", 1000)
             raise Error(f"footstep {key} {value * scale:g} {unit} is outside {low * scale:g}..{high * scale:g} {unit}")
     landed = footstep_pose(np.zeros(3), side, footstep, separation=foot_separation(robot))

@@ -359,6 +359,26 @@ def test_ocp_settings_scale_with_the_robot_and_talos_keeps_the_defaults(robot, g
     assert scaled.ss_duration == pytest.approx(0.425) and growth == pytest.approx(g1.scale.width, rel=omega * scaled.dt)
 
 
+def test_the_footstep_range_scales_with_the_leg_and_talos_keeps_its_own(robot, g1):
+    from cocomopl.dataset.design import allowed_footsteps
+    from cocomopl.gait import FOOTSTEP_RANGE, check_footstep, footstep_range
+
+    assert footstep_range(robot) == FOOTSTEP_RANGE
+    limits = footstep_range(g1)
+    # lengths and widths shrink as G1's steps do (its leg is 0.731 of TALOS's), turns stay
+    assert limits["length"] == (-0.11, 0.29) and limits["width"] == (-0.035, 0.12)
+    assert limits["turn"] == FOOTSTEP_RANGE["turn"]
+    check_footstep(g1, "left", (0.29, 0.12, 0.0))
+    with pytest.raises(Error, match=re.escape("length 350 mm is outside -110..290 mm")):
+        check_footstep(g1, "left", (0.35, 0.0, 0.0))
+    check_footstep(robot, "left", (0.35, 0.0, 0.0))
+    drawn = allowed_footsteps(g1, 200, seed=5)
+    for column, key in enumerate(("length", "width", "turn")):
+        low, high = limits[key]
+        assert low - 1e-9 <= drawn[:, column].min() and drawn[:, column].max() <= high + 1e-9
+        assert (drawn[:, column] < 0).any() and (drawn[:, column] > 0).any()  # either sign
+
+
 def test_walk_and_training_lengths_scale_with_the_leg_and_talos_keeps_the_papers(robot, g1):
     from cocomopl.dataset.plan import (
         DEFAULT_EXTRA_TRANSITIONS_M,

@@ -1,7 +1,7 @@
 """Training steps spread over the step space: every step the footstep range allows.
 
 A step goes from a start footstep to an end footstep, each (length, width, turn), within
-:data:`~cocomopl.gait.FOOTSTEP_RANGE` and passing :func:`~cocomopl.gait.check_footstep`.  A
+the robot's :func:`~cocomopl.gait.footstep_range` and passing :func:`~cocomopl.gait.check_footstep`.  A
 design is a set of footsteps, each solved as a start, a cyclic and a stop step, and pairs of
 them, each solved as a transition both ways.  Distances are measured as the weight GPs measure
 them (:data:`~cocomopl.gait.FOOTSTEP_METRIC`): a footstep is a point in metres, a transition
@@ -24,15 +24,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.gait import FOOTSTEP_METRIC, FOOTSTEP_RANGE, check_footstep
+from cocomopl.gait import FOOTSTEP_METRIC, check_footstep, footstep_range
 from cocomopl.motion import Footstep, as_footstep
 from cocomopl.robot import Robot
 
 SAMPLINGS = ("maximin", "random")
 DEFAULT_STEP_SPACE = (60, 80)  # footsteps, pairs: the bundled omnidirectional set
 DEFAULT_STEP_SPACE_TEXT = "/".join(map(str, DEFAULT_STEP_SPACE))
-_LOW = np.array([FOOTSTEP_RANGE[key][0] for key in ("length", "width", "turn")])
-_HIGH = np.array([FOOTSTEP_RANGE[key][1] for key in ("length", "width", "turn")])
 CANDIDATES = 2048  # Sobol points a maximin design picks its footsteps from, by default
 _GRID = 5  # and a grid of this many values per parameter, the range's bounds included
 
@@ -74,12 +72,19 @@ def is_allowed(robot: Robot, footstep) -> bool:
 def allowed_footsteps(robot: Robot, count: int, *, seed: int) -> np.ndarray:
     """``count`` footsteps (length, width, turn), drawn uniformly over the allowed range."""
     rng = np.random.default_rng(seed)
+    low, high = _bounds(robot)
     out: list[np.ndarray] = []
     while len(out) < count:
-        footstep = np.array(rounded(rng.uniform(_LOW, _HIGH)))
+        footstep = np.array(rounded(rng.uniform(low, high)))
         if is_allowed(robot, footstep):
             out.append(footstep)
     return np.array(out).reshape(-1, 3)
+
+
+def _bounds(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """The low and high (length, width, turn) of the robot's footsteps (:func:`~cocomopl.gait.footstep_range`)."""
+    limits = footstep_range(robot)
+    return tuple(np.array([limits[key][i] for key in ("length", "width", "turn")]) for i in (0, 1))
 
 
 def _candidates(robot: Robot, seed: int, count: int) -> np.ndarray:
@@ -87,8 +92,9 @@ def _candidates(robot: Robot, seed: int, count: int) -> np.ndarray:
     that holds its bounds, where farthest-point sampling puts its first picks."""
     from scipy.stats import qmc
 
-    grid = np.stack(np.meshgrid(*(np.linspace(lo, hi, _GRID) for lo, hi in zip(_LOW, _HIGH)), indexing="ij"), -1)
-    sobol = qmc.scale(qmc.Sobol(3, seed=seed).random(count), _LOW, _HIGH)
+    low, high = _bounds(robot)
+    grid = np.stack(np.meshgrid(*(np.linspace(lo, hi, _GRID) for lo, hi in zip(low, high)), indexing="ij"), -1)
+    sobol = qmc.scale(qmc.Sobol(3, seed=seed).random(count), low, high)
     points = {rounded(p) for p in np.vstack([grid.reshape(-1, 3), sobol])}
     return np.array(sorted(p for p in points if is_allowed(robot, p)))
 

@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from cocomopl.errors import Error, parse_finite
-from cocomopl.gait import FOOTSTEP_RANGE, OTHER_SIDE, check_footstep, wrap_angle
+from cocomopl.gait import OTHER_SIDE, check_footstep, footstep_range, wrap_angle
 from cocomopl.motion import Footstep, StepSpec
 from cocomopl.planning.footsteps import footstep_specs, midpoint, soles_after
 from cocomopl.robot import Robot
@@ -100,7 +100,7 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], *, limits: dict
     goal : (x, y, yaw) of the feet's midpoint and heading at the end, world frame (m, rad),
         from the feet side by side at the origin facing +x
     limits : (low, high) per footstep ``"length"``, ``"width"``, ``"turn"`` the plan must
-        keep within (default: :data:`~cocomopl.gait.FOOTSTEP_RANGE`); a model's learned range
+        keep within (default: the robot's, :func:`~cocomopl.gait.footstep_range`); a model's learned range
     accept : a further test a plan must pass, e.g. that every step lies within a model's
         training support (:func:`cocomopl.pipeline.plan_in_support`); a plan it refuses gives
         way to the next
@@ -111,7 +111,7 @@ def plan_to_goal(robot: Robot, goal: tuple[float, float, float], *, limits: dict
         If no gait of up to ``MAX_LANDINGS`` landings reaches the goal within the limits (and
         passes ``accept``).
     """
-    limits = FOOTSTEP_RANGE if limits is None else limits
+    limits = footstep_range(robot) if limits is None else limits
     goal = np.array([float(v) for v in goal])
     if not np.all(np.isfinite(goal)):
         raise Error(f"goal {tuple(goal)} is not finite")
