@@ -28,13 +28,17 @@ M_GEN_MM = ",".join(f"{1000 * x:g}" for x in M_GEN)
 
 
 def m_gen(robot: Robot) -> tuple[float, ...]:
-    """M_gen for ``robot``: TALOS's lengths scaled by its leg length, to 10 mm (TALOS: ``M_GEN``)."""
-    return tuple(robot.scale.length_m(x) for x in M_GEN)
+    """M_gen for ``robot``: its description's ``defaults.walk``, else TALOS's lengths scaled by
+    its leg length, to 10 mm (TALOS: ``M_GEN``)."""
+    given = robot.override("walk")
+    return tuple(map(float, given)) if given is not None else tuple(robot.scale.length_m(x) for x in M_GEN)
 
 
 def m_opt(robot: Robot) -> tuple[float, ...]:
-    """M_opt for ``robot``, scaled as :func:`m_gen` (TALOS: ``M_OPT``)."""
-    return tuple(robot.scale.length_m(x) for x in M_OPT)
+    """M_opt for ``robot``: its description's ``defaults.walk``, else scaled as :func:`m_gen`
+    (TALOS: ``M_OPT``)."""
+    given = robot.override("walk")
+    return tuple(map(float, given)) if given is not None else tuple(robot.scale.length_m(x) for x in M_OPT)
 
 
 def foot_separation(robot: Robot) -> float:
@@ -109,12 +113,14 @@ def footstep_range(robot: Robot) -> dict[str, tuple[float, float]]:
     ``FOOTSTEP_RANGE``'s lengths and widths scaled as the robot's step lengths
     (:meth:`~cocomopl.robot.scale.Scale.length_m`: the leg length, or the stride the legs
     stand across), to 10 and 5 mm; its turns as they are, since a hip's yaw range does not
-    grow with the leg.  TALOS's: ``FOOTSTEP_RANGE`` itself.
+    grow with the leg.  TALOS's: ``FOOTSTEP_RANGE`` itself.  The description's
+    ``defaults.footstep_range`` replaces any of the three.
     """
     scale = robot.scale
     length = tuple(scale.length_m(x) for x in FOOTSTEP_RANGE["length"])
     width = tuple(scale.length_m(x, resolution=0.005) for x in FOOTSTEP_RANGE["width"])
-    return {"length": length, "width": width, "turn": FOOTSTEP_RANGE["turn"]}
+    given = {key: (float(low), float(high)) for key, (low, high) in (robot.override("footstep_range") or {}).items()}
+    return {"length": length, "width": width, "turn": FOOTSTEP_RANGE["turn"]} | given
 
 
 def within_range(key: str, value: float, limits: dict[str, tuple[float, float]] = FOOTSTEP_RANGE) -> bool:

@@ -93,7 +93,7 @@ def generate_dataset(
     description = Robot(robot)
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
                  "min_knee_flexion": min_knee_flexion}
-    defaults = robot_settings(description.scale)
+    defaults = robot_settings(description.scale, description.override("ocp"))
     settings = replace(defaults, **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input
     known = {}
@@ -613,6 +613,9 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
     description file): joint groups, mirror pairs, soles, posture and the symmetrisation;
     with ``png``, a picture of the posture and its soles."""
 
+    from cocomopl.dataset.plan import default_lengths
+    from cocomopl.gait import footstep_range, m_gen
+    from cocomopl.ocp.settings import robot_settings
     from cocomopl.robot import Robot
 
     if png is not None:
@@ -638,6 +641,10 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         armature={"source": r.armature_source, "min_kg_m2": float(r.model.armature[6:].min()),
                   "max_kg_m2": float(r.model.armature[6:].max())},
         scale={**asdict(r.scale), "time": r.scale.time},
+        defaults={"given": sorted(r.description.get("defaults", {})), "walk_m": list(m_gen(r)),
+                  "training_lengths_m": list(default_lengths(r)),
+                  "footstep_range": {key: list(v) for key, v in footstep_range(r).items()},
+                  "ocp": robot_settings(r.scale, r.override("ocp")).as_dict()},
     )
     if png is not None:
         from cocomopl.analysis.plots import plot_robot_posture

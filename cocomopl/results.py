@@ -81,6 +81,11 @@ METRIC_ROWS = (
 )
 
 
+def _mm(metres, separator: str = ",") -> str:
+    """Lengths in m as millimetres joined by ``separator``."""
+    return separator.join(f"{1000 * x:g}" for x in metres)
+
+
 def metrics_table(metrics: WalkMetrics) -> str:
     """The main simulation metrics (:func:`~cocomopl.analysis.metrics.summary`), one per line."""
     values = ((label, fmt, getattr(metrics, name)) for name, label, fmt in METRIC_ROWS)
@@ -600,6 +605,7 @@ class RobotCheck(Result):
     inertia_symmetrised_m: float
     armature: dict
     scale: dict
+    defaults: dict
     png: str | None = field(default=None, metadata=OPTIONAL)
 
     def to_table(self) -> str:
@@ -619,6 +625,13 @@ class RobotCheck(Result):
         stride = "" if k.get("stride") is None else f", step lengths {k['stride']:g} (what the legs reach)"
         lines.append(f"scale against TALOS: mass {k['mass']:g}, leg length {k['length']:g}, sole half width "
                      f"{k['width']:g}, durations {k['time']:.3f}{stride} (docs/robots.md)")
+        d = self.defaults
+        given = f" (the description sets {', '.join(d['given'])})" if d["given"] else ""
+        r = d["footstep_range"]
+        lines.append(f"defaults{given}: walk {_mm(d['walk_m'])} mm; training lengths {_mm(d['training_lengths_m'])} mm; "
+                     f"footsteps length {_mm(r['length'], '..')} mm, width {_mm(r['width'], '..')} mm, turn "
+                     + "..".join(f"{math.degrees(x):g}" for x in r["turn"]) + " deg; single support "
+                     f"{d['ocp']['ss_duration']:g} s, ZMP margin {1000 * d['ocp']['zmp_margin']:g} mm")
         if self.png:
             lines.append(f"wrote {self.png}")
         return "\n".join(lines)

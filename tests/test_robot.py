@@ -445,6 +445,18 @@ def test_robot_init_writes_a_description_that_loads_or_nothing(tmp_path):
     ({"symmetrize": "no"}, "'symmetrize' must be true or false"),
     ({"armature": -0.01}, "'armature' must be a positive number of kg m^2"),
     ({"foot_separation": "wide"}, "'foot_separation' must be a positive number"),
+    ({"defaults": []}, "defaults must be a JSON object"),
+    ({"defaults": {"speed": 1}}, "defaults has no key 'speed'"),
+    ({"defaults": {"ocp": {"ss_time": 0.5}}}, "defaults.ocp.ss_time is not an OCP setting"),
+    ({"defaults": {"ocp": {"dt": 0}}}, "defaults.ocp.dt must be a positive number, not 0"),
+    ({"defaults": {"ocp": {"zmp_margin": -0.01}}}, "defaults.ocp.zmp_margin must be a number of at least 0"),
+    ({"defaults": {"ocp": {"max_iterations": 10.5}}}, "defaults.ocp.max_iterations must be a positive whole number"),
+    ({"defaults": {"ocp": {"ss_bounds": [0.9, 0.5]}}}, "defaults.ocp.ss_bounds must be two increasing positive numbers"),
+    ({"defaults": {"walk": [0.1, -0.1]}}, "defaults.walk must be a list of positive step lengths in m"),
+    ({"defaults": {"training_lengths": []}}, "defaults.training_lengths must be a list of positive step lengths"),
+    ({"defaults": {"footstep_range": {"length": [0.3, 0.1]}}}, "defaults.footstep_range.length must be [low, high]"),
+    ({"defaults": {"footstep_range": {"side": [0, 1]}}}, "defaults.footstep_range must be an object of length, width, turn"),
+    ({"defaults": {"stabilizer": {"ankle_damping": 0}}}, "defaults.stabilizer must be an object of positive"),
 ])
 def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fields, words):
     import json
@@ -452,6 +464,35 @@ def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fiel
     (tmp_path / "bad.json").write_text(json.dumps({"name": "bad", "example_robot_data": "g1", "pelvis": "pelvis", **fields}))
     with pytest.raises(Error, match=re.escape(words)):
         Robot(str(tmp_path / "bad.json"))
+
+
+def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_others(tmp_path, g1):
+    import json
+    from types import SimpleNamespace
+
+    from cocomopl.dataset.plan import default_lengths
+    from cocomopl.gait import footstep_range, m_gen, m_opt
+    from cocomopl.jobs import check_robot
+    from cocomopl.ocp.settings import robot_settings
+    from cocomopl.sim.stabilizer import gains_for
+
+    defaults = {"ocp": {"ss_duration": 0.5, "ss_bounds": [0.4, 0.6], "w_load_transfer": 0},
+                "walk": [0.1, 0.2, 0.1], "training_lengths": [0.2, 0.1, 0.15],
+                "footstep_range": {"width": [-0.02, 0.1]}, "stabilizer": {"dcm_gain": 3}}
+    path = tmp_path / "mybot.json"
+    path.write_text(json.dumps({"name": "mybot", "example_robot_data": "g1", "pelvis": "pelvis", "defaults": defaults}))
+    mybot = Robot(str(path))
+    settings = robot_settings(mybot.scale, mybot.override("ocp"))
+    scaled = robot_settings(g1.scale)
+    assert (settings.ss_duration, settings.ss_bounds, settings.w_load_transfer) == (0.5, (0.4, 0.6), 0)
+    assert settings.zmp_margin == scaled.zmp_margin and settings.ds_duration == scaled.ds_duration
+    assert m_gen(mybot) == m_opt(mybot) == (0.1, 0.2, 0.1) and default_lengths(mybot) == (0.1, 0.15, 0.2)
+    assert footstep_range(mybot) == footstep_range(g1) | {"width": (-0.02, 0.1)}
+    mp = SimpleNamespace(producer="primitives")
+    assert gains_for(mp, mybot).dcm_gain == 3 and gains_for(mp, mybot).ankle_damping == gains_for(mp, g1).ankle_damping
+    check = check_robot(str(path))
+    assert check.defaults["given"] == sorted(defaults) and check.defaults["ocp"]["ss_duration"] == 0.5
+    assert "the description sets footstep_range, ocp, stabilizer, training_lengths, walk" in check.to_table()
 
 
 def test_step_lengths_scale_to_what_the_legs_stand_across(robot, g1):

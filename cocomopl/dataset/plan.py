@@ -83,7 +83,11 @@ def parse_gait_grid(text: str) -> tuple[tuple[float, ...], tuple[float, ...], tu
 
 
 def default_lengths(robot) -> tuple[float, ...]:
-    """The default training lengths for ``robot``: TALOS's scaled by its leg length, to 10 mm."""
+    """The default training lengths for ``robot``: its description's ``defaults.training_lengths``,
+    else TALOS's scaled by its leg length, to 10 mm."""
+    given = robot.override("training_lengths")
+    if given is not None:
+        return tuple(sorted(dict.fromkeys(float(x) for x in given)))
     return tuple(dict.fromkeys(robot.scale.length_m(x) for x in DEFAULT_LENGTHS_M))
 
 

@@ -99,7 +99,7 @@ class OCPSettings:
         return cls(**values)
 
 
-def robot_settings(scale: Scale) -> OCPSettings:
+def robot_settings(scale: Scale, overrides: dict | None = None) -> OCPSettings:
     """The default settings for a robot of ``scale`` (:class:`~cocomopl.robot.scale.Scale`,
     its size relative to TALOS's, on which they were tuned; docs/robots.md):
 
@@ -111,11 +111,13 @@ def robot_settings(scale: Scale) -> OCPSettings:
       number), and the single support's also with the soles' width
       (:meth:`~cocomopl.robot.scale.Scale.single_support`), each a whole number of knots.
 
-    TALOS (a scale of 1) gets the defaults exactly.
+    TALOS (a scale of 1) gets the defaults exactly.  ``overrides`` (a robot description's
+    ``defaults.ocp``, :meth:`~cocomopl.robot.Robot.override`) replace any of them.
     """
     d = OCPSettings()
     durations = {key: scale.duration(getattr(d, key), d.dt) for key in ("ds_duration", "start_ds_duration", "rest_duration")}
     durations["ss_duration"] = scale.single_support(d.ss_duration, d.dt)
-    return replace(d, zmp_margin=d.zmp_margin * scale.width, clearance=d.clearance * scale.length,
-                   swing_lateral_gap=d.swing_lateral_gap * scale.length, sole_gap=d.sole_gap * scale.length,
-                   w_load_transfer=d.w_load_transfer / scale.mass**2, **durations)
+    scaled = replace(d, zmp_margin=d.zmp_margin * scale.width, clearance=d.clearance * scale.length,
+                     swing_lateral_gap=d.swing_lateral_gap * scale.length, sole_gap=d.sole_gap * scale.length,
+                     w_load_transfer=d.w_load_transfer / scale.mass**2, **durations)
+    return replace(scaled, **{k: tuple(v) if isinstance(v, list) else v for k, v in (overrides or {}).items()})

@@ -105,11 +105,68 @@ def _checked(desc, where: str) -> dict:
         raise Error(f"robot description {where}: 'armature' must be a positive number of kg m^2, not {desc['armature']!r}")
     if not isinstance(desc.get("symmetrize", True), bool):
         raise Error(f"robot description {where}: 'symmetrize' must be true or false, not {desc['symmetrize']!r}")
+    if "defaults" in desc:
+        _check_defaults(desc["defaults"], where)
     return desc
 
 
+# What a description's "defaults" may set in place of the values scaled from TALOS's
+# (docs/robots.md#overriding-the-scaled-defaults); lengths in m, angles in rad.
+DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer")
+STABILIZER_KEYS = ("ankle_damping", "dcm_gain")
+FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
+
+
+def _check_defaults(defaults, where: str) -> None:
+    """An :class:`Error` naming the first entry of a description's ``defaults`` that is not
+    what docs/robots.md says."""
+    from cocomopl.ocp.settings import OCPSettings
+
+    def fail(key: str, wants: str, value) -> Error:
+        return Error(f"robot description {where}: defaults.{key} must be {wants}, not {value!r}")
+
+    if not isinstance(defaults, dict):
+        raise Error(f"robot description {where}: defaults must be a JSON object, not {defaults!r}")
+    for key in defaults:
+        if key not in DEFAULTS_KEYS:
+            raise Error(f"robot description {where}: defaults has no key {key!r} (it takes {', '.join(DEFAULTS_KEYS)})")
+    ocp = defaults.get("ocp", {})
+    if not isinstance(ocp, dict):
+        raise fail("ocp", "a JSON object of OCP settings", ocp)
+    known = OCPSettings.__dataclass_fields__
+    for name, value in ocp.items():
+        if name not in known:
+            raise Error(f"robot description {where}: defaults.ocp.{name} is not an OCP setting (a field of cocomopl.ocp.settings.OCPSettings)")
+        default = getattr(OCPSettings(), name)
+        if isinstance(default, tuple):
+            if not (isinstance(value, list) and len(value) == 2 and all(map(_positive, value)) and value[0] < value[1]):
+                raise fail(f"ocp.{name}", "two increasing positive numbers", value)
+        elif isinstance(default, int):
+            if not (isinstance(value, int) and not isinstance(value, bool) and value > 0):
+                raise fail(f"ocp.{name}", "a positive whole number", value)
+        elif not (_positive(value) or (value == 0 and not isinstance(value, bool) and default >= 0 and name != "dt")):
+            raise fail(f"ocp.{name}", "a positive number" if name == "dt" else "a number of at least 0", value)
+    for key in ("training_lengths", "walk"):
+        value = defaults.get(key, [0.1])
+        if not (isinstance(value, list) and value and all(map(_positive, value))):
+            raise fail(key, "a list of positive step lengths in m", value)
+    ranges = defaults.get("footstep_range", {})
+    if not isinstance(ranges, dict) or set(ranges) - set(FOOTSTEP_RANGE_KEYS):
+        raise fail("footstep_range", f"an object of {', '.join(FOOTSTEP_RANGE_KEYS)}", ranges)
+    for key, value in ranges.items():
+        if not (isinstance(value, list) and len(value) == 2 and all(_finite(v) for v in value) and value[0] < value[1]):
+            raise fail(f"footstep_range.{key}", "[low, high], low < high" + (" (rad)" if key == "turn" else " (m)"), value)
+    gains = defaults.get("stabilizer", {})
+    if not isinstance(gains, dict) or set(gains) - set(STABILIZER_KEYS) or not all(map(_positive, gains.values())):
+        raise fail("stabilizer", f"an object of positive {' and '.join(STABILIZER_KEYS)}", gains)
+
+
+def _finite(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
 def _positive(value) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value) and value > 0
+    return _finite(value) and value > 0
 
 
 def load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
@@ -459,6 +516,11 @@ class Robot:
             name = self.model.names[jid]
             q[self.model.idx_qs[jid]] = q_full[full.idx_qs[full.getJointId(name)]]
         return q
+
+    def override(self, key: str):
+        """What the description's ``defaults`` set for ``key`` (one of :data:`DEFAULTS_KEYS`) in
+        place of the value scaled from TALOS's, or None (docs/robots.md)."""
+        return self.description.get("defaults", {}).get(key)
 
     def _set_armature(self, given: float | None) -> str:
         """Give every actuated joint the description's ``armature`` (kg m^2), or, where the model

@@ -116,9 +116,10 @@ TUNED_GAINS = {
 def gains_for(reference: Motion, robot: Robot) -> StabilizerGains:
     """The tuned gains for the generator that made ``reference`` (the defaults for any other),
     for ``robot``: the ankle damping scaled by its torques' ratio to TALOS's, on which they
-    were tuned (:class:`~cocomopl.robot.scale.Scale`)."""
+    were tuned (:class:`~cocomopl.robot.scale.Scale`); either replaced by the description's
+    ``defaults.stabilizer``."""
     tuned = TUNED_GAINS.get(reference.producer, StabilizerGains())
-    return replace(tuned, ankle_damping=tuned.ankle_damping * robot.scale.torque)
+    return replace(tuned, ankle_damping=tuned.ankle_damping * robot.scale.torque, **(robot.override("stabilizer") or {}))
 
 
 def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
