@@ -436,6 +436,21 @@ def test_robot_init_writes_a_description_that_loads_or_nothing(tmp_path):
     assert not (tmp_path / "bolt.json").exists()
 
 
+def test_a_robot_facing_backwards_in_its_base_frame_is_refused_and_zero_link_inertias_symmetrise(tmp_path):
+    """iCub's base frame faces it -x (its knees flex its soles forwards), and its URDF gives
+    some links no rotational inertia, which averaging with the mirror image leaves round-off
+    below zero."""
+    from cocomopl.robot.description import link_inertia
+
+    with pytest.raises(Error, match=re.escape("robot 'icub' faces -x in its base frame")) as info:
+        Robot({"name": "icub", "example_robot_data": "icub", "pelvis": "root_link"})
+    assert "\n" not in str(info.value)
+    almost_zero = np.diag([-5e-20, -5e-20, 0.0])
+    inertia = link_inertia(0.5, np.zeros(3), almost_zero)
+    assert inertia.mass == 0.5 and np.all(np.linalg.eigvalsh(inertia.inertia) >= 0)
+    assert np.abs(inertia.inertia).max() < 1e-19
+
+
 @pytest.mark.parametrize(("fields", "words"), [
     ({"feet": {"left": "l", "right": "r"}}, "give both 'feet' and 'sole'"),
     ({"feet": {"left": "l"}, "sole": {"front": 0.1, "back": 0.1, "half_width": 0.05}}, "'feet' must name"),

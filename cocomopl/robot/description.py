@@ -165,6 +165,16 @@ def _finite(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
 
 
+def link_inertia(mass: float, lever: np.ndarray, rotational: np.ndarray) -> pin.Inertia:
+    """A link inertia; a rotational inertia a URDF gives as zero (iCub's hips and wrists: a
+    point mass) is kept zero where averaging leaves it round-off below zero, which Pinocchio refuses."""
+    try:
+        return pin.Inertia(mass, lever, rotational)
+    except RuntimeError:
+        values, vectors = np.linalg.eigh(0.5 * (rotational + rotational.T))
+        return pin.Inertia(mass, lever, vectors @ np.diag(np.clip(values, 0.0, None)) @ vectors.T)
+
+
 def _positive(value) -> bool:
     return _finite(value) and value > 0
 
@@ -497,6 +507,7 @@ class Robot:
         # kinematically possible but walking is not (legs nearly straight)
         self.max_step_length = float(desc.get("max_step_length", np.inf))
         self.mirror_perm, self.mirror_sign = self._derive_mirror_map()
+        self._check_facing()
         if not named_posture:
             self.q_ref = self._bent_knee_posture(desc.get("pelvis_height"), desc.get("foot_separation"))
         self.inertia_asymmetry = self._symmetrize_inertias() if symmetrize else 0.0
@@ -626,6 +637,24 @@ class Robot:
                         f"(sole error {error * 1000:.1f} mm); give a reference_posture or another pelvis_height")
         return q
 
+    def _check_facing(self) -> None:
+        """An :class:`Error` unless the robot faces +x in its base frame, as every walk assumes.
+
+        A knee flexes towards the longer side of its range; flexed, it swings the sole
+        back, under a robot that faces +x.  (iCub's base frame faces it -x.)
+        """
+        q = pin.neutral(self.model)
+        for side, roles in self.leg_roles().items():
+            knee = roles["knee"]
+            flexion = 1.0 if abs(self.q_upper[knee]) >= abs(self.q_lower[knee]) else -1.0
+            bent = q.copy()
+            bent[7 + knee] = float(np.clip(0.3 * flexion, self.q_lower[knee], self.q_upper[knee]))
+            frame = self.foot_frames[side]
+            swing = self.frame_placement(bent, frame).translation[0] - self.frame_placement(q, frame).translation[0]
+            if swing > 0:
+                raise Error(f"robot {self.name!r} faces -x in its base frame (its {self.joint_names[knee]} "
+                            "flexes the sole forwards); cocomopl walks robots that face +x")
+
     def _derive_mirror_map(self) -> tuple[np.ndarray, np.ndarray]:
         """Joint permutation and signs of the sagittal (y -> -y) reflection.
 
@@ -672,13 +701,7 @@ class Robot:
             com_w = P @ (R_o @ other.lever + p_o)
             lever = R_s.T @ (com_w - p_s)
             rot = R_s.T @ P @ R_o @ other.inertia @ R_o.T @ P @ R_s
-            averaged.append(
-                pin.Inertia(
-                    0.5 * (own.mass + other.mass),
-                    0.5 * (own.lever + lever),
-                    0.5 * (own.inertia + rot),
-                )
-            )
+            averaged.append(link_inertia(0.5 * (own.mass + other.mass), 0.5 * (own.lever + lever), 0.5 * (own.inertia + rot)))
         change = max(float(np.abs(a.lever - model.inertias[j].lever).max()) for j, a in enumerate(averaged, 1))
         for jid, inertia in enumerate(averaged, 1):
             model.inertias[jid] = inertia
