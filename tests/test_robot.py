@@ -462,11 +462,7 @@ def test_a_robot_facing_backwards_in_its_base_frame_is_refused_and_zero_link_ine
     ({"foot_separation": "wide"}, "'foot_separation' must be a positive number"),
     ({"defaults": []}, "defaults must be a JSON object"),
     ({"defaults": {"speed": 1}}, "defaults has no key 'speed'"),
-    ({"defaults": {"ocp": {"ss_time": 0.5}}}, "defaults.ocp.ss_time is not an OCP setting"),
-    ({"defaults": {"ocp": {"dt": 0}}}, "defaults.ocp.dt must be a positive number, not 0"),
-    ({"defaults": {"ocp": {"zmp_margin": -0.01}}}, "defaults.ocp.zmp_margin must be a number of at least 0"),
-    ({"defaults": {"ocp": {"max_iterations": 10.5}}}, "defaults.ocp.max_iterations must be a positive whole number"),
-    ({"defaults": {"ocp": {"ss_bounds": [0.9, 0.5]}}}, "defaults.ocp.ss_bounds must be two increasing positive numbers"),
+    ({"defaults": {"ocp": [0.5]}}, "defaults.ocp must be a JSON object of OCP settings"),
     ({"defaults": {"walk": [0.1, -0.1]}}, "defaults.walk must be a list of positive step lengths in m"),
     ({"defaults": {"training_lengths": []}}, "defaults.training_lengths must be a list of positive step lengths"),
     ({"defaults": {"footstep_range": {"length": [0.3, 0.1]}}}, "defaults.footstep_range.length must be [low, high]"),
@@ -479,6 +475,22 @@ def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fiel
     (tmp_path / "bad.json").write_text(json.dumps({"name": "bad", "example_robot_data": "g1", "pelvis": "pelvis", **fields}))
     with pytest.raises(Error, match=re.escape(words)):
         Robot(str(tmp_path / "bad.json"))
+
+
+@pytest.mark.parametrize(("ocp", "words"), [
+    ({"ss_time": 0.5}, "defaults.ocp.ss_time is not an OCP setting"),
+    ({"dt": 0}, "defaults.ocp.dt must be a positive number, not 0"),
+    ({"zmp_margin": -0.01}, "defaults.ocp.zmp_margin must be a number of at least 0"),
+    ({"w_torque": True}, "defaults.ocp.w_torque must be a number of at least 0"),
+    ({"max_iterations": 10.5}, "defaults.ocp.max_iterations must be a positive whole number"),
+    ({"ss_bounds": [0.9, 0.5]}, "defaults.ocp.ss_bounds must be two increasing positive numbers"),
+])
+def test_an_ocp_setting_a_description_cannot_set_is_one_line_naming_it(ocp, words):
+    from cocomopl.ocp.settings import robot_settings
+
+    with pytest.raises(Error, match=re.escape(words)) as info:
+        robot_settings(Scale(), ocp)
+    assert "\n" not in str(info.value)
 
 
 def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_others(tmp_path, g1):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import TYPE_CHECKING
 
@@ -120,4 +121,28 @@ def robot_settings(scale: Scale, overrides: dict | None = None) -> OCPSettings:
     scaled = replace(d, zmp_margin=d.zmp_margin * scale.width, clearance=d.clearance * scale.length,
                      swing_lateral_gap=d.swing_lateral_gap * scale.length, sole_gap=d.sole_gap * scale.length,
                      w_load_transfer=d.w_load_transfer / scale.mass**2, **durations)
-    return replace(scaled, **{k: tuple(v) if isinstance(v, list) else v for k, v in (overrides or {}).items()})
+    return replace(scaled, **_checked_overrides(overrides or {}))
+
+
+def _checked_overrides(overrides: dict) -> dict:
+    """A robot description's ``defaults.ocp`` as settings, or an :class:`Error` naming the
+    first entry that is not a setting or not a value it takes."""
+    defaults, out = OCPSettings(), {}
+    for name, value in overrides.items():
+        if name not in {f.name for f in fields(OCPSettings)}:
+            raise Error(f"robot description: defaults.ocp.{name} is not an OCP setting (a field of OCPSettings)")
+        default, number = getattr(defaults, name), isinstance(value, int | float) and not isinstance(value, bool)
+        if isinstance(default, tuple):
+            ok = (isinstance(value, list) and len(value) == 2 and all(isinstance(v, int | float) and v > 0 for v in value)
+                  and value[0] < value[1])
+            wants, value = "two increasing positive numbers", tuple(value) if ok else value
+        elif isinstance(default, int):
+            ok, wants = isinstance(value, int) and not isinstance(value, bool) and value > 0, "a positive whole number"
+        elif name == "dt":
+            ok, wants = number and math.isfinite(value) and value > 0, "a positive number"
+        else:
+            ok, wants = number and math.isfinite(value) and value >= 0, "a number of at least 0"
+        if not ok:
+            raise Error(f"robot description: defaults.ocp.{name} must be {wants}, not {value!r}")
+        out[name] = value
+    return out

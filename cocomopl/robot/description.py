@@ -119,8 +119,8 @@ FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
 
 def _check_defaults(defaults, where: str) -> None:
     """An :class:`Error` naming the first entry of a description's ``defaults`` that is not
-    what docs/robots.md says."""
-    from cocomopl.ocp.settings import OCPSettings
+    what docs/robots.md says (the OCP settings' names and values are checked where they are
+    applied, :func:`cocomopl.ocp.settings.robot_settings`)."""
 
     def fail(key: str, wants: str, value) -> Error:
         return Error(f"robot description {where}: defaults.{key} must be {wants}, not {value!r}")
@@ -130,22 +130,8 @@ def _check_defaults(defaults, where: str) -> None:
     for key in defaults:
         if key not in DEFAULTS_KEYS:
             raise Error(f"robot description {where}: defaults has no key {key!r} (it takes {', '.join(DEFAULTS_KEYS)})")
-    ocp = defaults.get("ocp", {})
-    if not isinstance(ocp, dict):
-        raise fail("ocp", "a JSON object of OCP settings", ocp)
-    known = OCPSettings.__dataclass_fields__
-    for name, value in ocp.items():
-        if name not in known:
-            raise Error(f"robot description {where}: defaults.ocp.{name} is not an OCP setting (a field of cocomopl.ocp.settings.OCPSettings)")
-        default = getattr(OCPSettings(), name)
-        if isinstance(default, tuple):
-            if not (isinstance(value, list) and len(value) == 2 and all(map(_positive, value)) and value[0] < value[1]):
-                raise fail(f"ocp.{name}", "two increasing positive numbers", value)
-        elif isinstance(default, int):
-            if not (isinstance(value, int) and not isinstance(value, bool) and value > 0):
-                raise fail(f"ocp.{name}", "a positive whole number", value)
-        elif not (_positive(value) or (value == 0 and not isinstance(value, bool) and default >= 0 and name != "dt")):
-            raise fail(f"ocp.{name}", "a positive number" if name == "dt" else "a number of at least 0", value)
+    if not isinstance(defaults.get("ocp", {}), dict):
+        raise fail("ocp", "a JSON object of OCP settings", defaults["ocp"])
     for key in ("training_lengths", "walk"):
         value = defaults.get(key, [0.1])
         if not (isinstance(value, list) and value and all(map(_positive, value))):
@@ -641,9 +627,11 @@ class Robot:
         """An :class:`Error` unless the robot faces +x in its base frame, as every walk assumes.
 
         A knee flexes towards the longer side of its range; flexed, it swings the sole
-        back, under a robot that faces +x.  (iCub's base frame faces it -x.)
+        back, under a robot that faces +x.  A robot whose knees all swing their soles forwards
+        faces -x (iCub's base frame).
         """
         q = pin.neutral(self.model)
+        forwards = []
         for side, roles in self.leg_roles().items():
             knee = roles["knee"]
             flexion = 1.0 if abs(self.q_upper[knee]) >= abs(self.q_lower[knee]) else -1.0
@@ -652,8 +640,10 @@ class Robot:
             frame = self.foot_frames[side]
             swing = self.frame_placement(bent, frame).translation[0] - self.frame_placement(q, frame).translation[0]
             if swing > 0:
-                raise Error(f"robot {self.name!r} faces -x in its base frame (its {self.joint_names[knee]} "
-                            "flexes the sole forwards); cocomopl walks robots that face +x")
+                forwards.append(self.joint_names[knee])
+        if len(forwards) == len(self.foot_frames):
+            raise Error(f"robot {self.name!r} faces -x in its base frame (its knees {' and '.join(forwards)} "
+                        "flex the soles forwards); cocomopl walks robots that face +x")
 
     def _derive_mirror_map(self) -> tuple[np.ndarray, np.ndarray]:
         """Joint permutation and signs of the sagittal (y -> -y) reflection.
