@@ -143,7 +143,8 @@ def test_phase_timing_is_searched_and_the_cheapest_kept(robot):
 
     from cocomopl.ocp.solve import solve_length
 
-    settings = replace(SMALL, ss_duration=0.6, ss_search_step=0.1, ss_bounds=(0.5, 0.7))
+    # two candidates, the least that shows a search: 0.6 s, then 0.7 s, and no step further within the bounds
+    settings = replace(SMALL, ss_duration=0.6, ss_search_step=0.1, ss_bounds=(0.6, 0.7))
     solutions, info = solve_length(robot, 0.2, settings, kinds=("cyclic",))
     costs = {c["ss_duration"]: c["cost"] for c in info["duration_search"] if c["cost"] is not None}
     assert len(info["duration_search"]) >= 2, info["duration_search"]

@@ -526,10 +526,18 @@ def test_step_lengths_scale_to_what_the_legs_stand_across(robot, g1):
     from cocomopl.dataset.plan import default_lengths
     from cocomopl.robot.description import REACH_MARGIN_M
 
+    import json
+
+    from cocomopl.robot.description import DESCRIPTIONS_DIR
+
     assert robot.scale.stride is None and g1.scale.stride is None  # they stand across their longest step
-    romeo = Robot("romeo")
+    assert Robot("romeo").scale.stride is None  # at its description's pelvis height, 0.86 m
+    # crouched at the derived pelvis height (6 % below straight legs, knees at 0.84 rad), its
+    # ankles are 0.08 rad from their limit, and with the leg length alone its longest step
+    # would be 320 mm, which it cannot stand across
+    description = json.loads((DESCRIPTIONS_DIR / "romeo.json").read_text())
+    romeo = Robot({key: value for key, value in description.items() if key not in ("pelvis_height", "defaults")})
     lengths = default_lengths(romeo)
-    # with the leg length alone its longest step would be 320 mm, beyond its ankles' range
     assert romeo.scale.stride is not None and max(lengths) < romeo.scale.length * 0.4
     assert romeo.stands_across(max(lengths) + REACH_MARGIN_M)
     assert not romeo.stands_across(max(lengths) + 0.01 + REACH_MARGIN_M)

@@ -33,6 +33,9 @@ SAME_CONVENTION_RAD = 1e-3  # partner frames turned further apart follow differe
 CONTACT_BAND_M = 2e-3  # collision points this close above the lowest one touch the floor standing
 REACH_MARGIN_M = 0.01  # the default steps' longest stands at least this far short of what the legs reach
 PELVIS_DROP = 0.06  # a derived posture's pelvis, as a share of its height with straight legs (TALOS: 64 of 1083 mm)
+# how far inside its limits a derived posture holds a joint off the legs: past the OCPs' own
+# 0.02 rad margin, which a posture on a limit (Romeo's elbows at neutral) sets against the posture cost
+POSTURE_LIMIT_MARGIN_RAD = 0.05
 _P = np.diag([1.0, -1.0, 1.0])  # the sagittal reflection y -> -y
 _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
 
@@ -616,6 +619,10 @@ class Robot:
             sign = np.sign([(data.oMi[int(i) + 2].rotation @ self.joint_axes[i])[1] for i in pitch])
             q[7 + pitch] = sign * [-0.2, 0.4, -0.2]
         q = place_legs(self, q, targets, legs=leg_joints(self), height_weight=1e3)
+        upper = 7 + self.upper_body_joint_indices()
+        low, high = self.q_lower[upper - 7], self.q_upper[upper - 7]
+        margin = np.minimum(POSTURE_LIMIT_MARGIN_RAD, (high - low) / 2)
+        q[upper] = np.clip(q[upper], low + margin, high - margin)
         error = max(np.linalg.norm(pin.log6(targets[side].actInv(self.frame_placement(q, frame))).vector)
                     for side, frame in self.foot_frames.items())
         if error > IK_REACHED:
