@@ -523,12 +523,10 @@ def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_othe
 
 
 def test_step_lengths_scale_to_what_the_legs_stand_across(robot, g1):
-    from cocomopl.dataset.plan import default_lengths
-    from cocomopl.robot.description import REACH_MARGIN_M
-
     import json
 
-    from cocomopl.robot.description import DESCRIPTIONS_DIR
+    from cocomopl.dataset.plan import default_lengths
+    from cocomopl.robot.description import DESCRIPTIONS_DIR, REACH_MARGIN_M
 
     assert robot.scale.stride is None and g1.scale.stride is None  # they stand across their longest step
     assert Robot("romeo").scale.stride is None  # at its description's pelvis height, 0.86 m
