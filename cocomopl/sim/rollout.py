@@ -121,7 +121,7 @@ class Reference:
             samples = samples + (sampled(motion.tau[keep]) + kv * np.gradient(samples, dt, axis=0)) / kp
 
         def at(time: float) -> np.ndarray:
-            return samples[int(np.clip(round((time - t[0]) / dt), 0, len(grid) - 1))]
+            return samples[min(max(round((time - t[0]) / dt), 0), len(grid) - 1)]
 
         return at
 
@@ -150,7 +150,7 @@ def placed_on_floor(sim: SimModel, data: mujoco.MjData, q0: np.ndarray) -> None:
 def _tilt(quat_wxyz: np.ndarray) -> float:
     """Angle between the base's z axis and the vertical."""
     _w, x, y, _z = quat_wxyz
-    return float(np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0)))
+    return float(np.arccos(min(max(1 - 2 * (x * x + y * y), -1.0), 1.0)))
 
 
 def simulate(

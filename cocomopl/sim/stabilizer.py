@@ -205,7 +205,7 @@ class Stabilizer(Hook):
         return SIDES[int(np.argmax(contact))] if contact.sum() == 1 else None
 
     def _sample(self, time: float) -> int:
-        return int(np.clip(np.searchsorted(self.t, time, side="right") - 1, 0, len(self.t) - 1))
+        return min(max(int(np.searchsorted(self.t, time, side="right")) - 1, 0), len(self.t) - 1)
 
     def correction(self, data: mujoco.MjData, time: float) -> np.ndarray:
         """Joint-angle offsets (nu,) to add to the reference command at ``time``."""
@@ -239,7 +239,7 @@ class Stabilizer(Hook):
         error = (forces[0] - forces[1]) - self.force_difference[k]
         self.z += self.dt * (error / self.force_damping - self.z / FORCE_LEAK)
         out += self.ankles + 0.5 * self.z * (self.lifts[k, 0] - self.lifts[k, 1])
-        return np.clip(out, -MAX_CORRECTION, MAX_CORRECTION)
+        return np.minimum(np.maximum(out, -MAX_CORRECTION), MAX_CORRECTION)  # np.clip, without its overhead
 
     def _tilt_take_up(self, data: mujoco.MjData, k: int, j: int, ankles: list[int]) -> np.ndarray:
         """Ankle offsets (pitch, roll) that turn sole ``j`` by its measured tilt from the
@@ -262,4 +262,4 @@ class Stabilizer(Hook):
             self.com_velocity += (velocity - self.com_velocity) * min(self.dt / COM_VELOCITY_FILTER, 1.0)
         self.com = com
         self.dcm_error = com + self.com_velocity / self.omega - self.dcm[k]
-        return np.clip(self.dcm_gain * self.dcm_error, -self.max_zmp_shift, self.max_zmp_shift)
+        return np.minimum(np.maximum(self.dcm_gain * self.dcm_error, -self.max_zmp_shift), self.max_zmp_shift)
