@@ -298,10 +298,32 @@ def _dask_client(scheduler: str):
             "--scheduler needs the [cluster] extra: pip install 'cocomopl[cluster]' "
             "(or pip install -e '.[cluster]')"
         ) from None
+    _refused_at_once(scheduler)
     try:
         return Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError) as exc:
         raise Error(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+
+
+def _refused_at_once(scheduler: str) -> None:
+    """An :class:`Error` at once if nothing listens at a ``tcp://HOST:PORT`` scheduler address
+    (the client would retry for :data:`SCHEDULER_TIMEOUT_S`); other addresses are left to it."""
+    import socket
+    from urllib.parse import urlsplit
+
+    address = urlsplit(scheduler)
+    try:
+        host, port = address.hostname, address.port
+    except ValueError:  # a port that is not a number: the client says so
+        return
+    if address.scheme != "tcp" or host is None or port is None:
+        return
+    try:
+        socket.create_connection((host, port), timeout=SCHEDULER_TIMEOUT_S).close()
+    except ConnectionRefusedError:
+        raise Error(f"cannot reach the Dask scheduler at {scheduler}: nothing listens on port {port}") from None
+    except OSError:  # unreachable or slow: the client's own timeout and message
+        return
 
 
 @contextlib.contextmanager
