@@ -106,13 +106,13 @@ def _finished_dataset(path: Path, robot, lengths: tuple[float, ...]) -> bool:
     """
     from cocomopl.dataset.generate import settings_problem
     from cocomopl.motion_file import file_attrs, open_checked
-    from cocomopl.ocp.settings import robot_settings
+    from cocomopl.ocp.settings import settings_for
 
     if not path.exists():
         return False
     with open_checked(path) as f:
         attrs = file_attrs(f)
-    expected = json.loads(json.dumps(robot_settings(robot.scale, robot.override("ocp")).as_dict()))  # as the file holds it: lists
+    expected = json.loads(json.dumps(settings_for(robot).as_dict()))  # as the file holds it: lists
     if attrs.get("content") != "dataset" or attrs.get("robot") != robot.name:
         raise Error(f"{path} is not a dataset of the robot {robot.name!r}: give another folder or remove it")
     same_lengths = [round(x, 6) for x in attrs.get("lengths_m", [])] == [round(x, 6) for x in lengths]

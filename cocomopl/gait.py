@@ -30,15 +30,18 @@ M_GEN_MM = ",".join(f"{1000 * x:g}" for x in M_GEN)
 def m_gen(robot: Robot) -> tuple[float, ...]:
     """M_gen for ``robot``: its description's ``defaults.walk``, else TALOS's lengths scaled by
     its leg length, to 10 mm (TALOS: ``M_GEN``)."""
-    given = robot.override("walk")
-    return tuple(map(float, given)) if given is not None else tuple(robot.scale.length_m(x) for x in M_GEN)
+    return _default_walk(robot, M_GEN)
 
 
 def m_opt(robot: Robot) -> tuple[float, ...]:
     """M_opt for ``robot``: its description's ``defaults.walk``, else scaled as :func:`m_gen`
     (TALOS: ``M_OPT``)."""
+    return _default_walk(robot, M_OPT)
+
+
+def _default_walk(robot: Robot, talos: tuple[float, ...]) -> tuple[float, ...]:
     given = robot.override("walk")
-    return tuple(map(float, given)) if given is not None else tuple(robot.scale.length_m(x) for x in M_OPT)
+    return tuple(map(float, given)) if given is not None else tuple(robot.scale.length_m(x) for x in talos)
 
 
 def foot_separation(robot: Robot) -> float:

@@ -77,7 +77,7 @@ def generate_dataset(
     """Solve the training OCPs for step ``lengths`` (m; or footsteps) and write the dataset to ``out``.
 
     The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults scaled to the
-    robot (:func:`~cocomopl.ocp.settings.robot_settings`; TALOS's are the defaults), with
+    robot (:func:`~cocomopl.ocp.settings.settings_for`; TALOS's are the defaults), with
     each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
     ``min_knee_flexion`` (rad) that is not None instead; ``record`` (how the set was
     designed) is added to the dataset's attributes; ``continuation=False`` solves each
@@ -87,13 +87,13 @@ def generate_dataset(
     :func:`cocomopl.dataset.generate.generate` for the summary returned.
     """
     from cocomopl.dataset.generate import generate, reusable_steps
-    from cocomopl.ocp.settings import robot_settings
+    from cocomopl.ocp.settings import settings_for
     from cocomopl.robot import Robot
 
     description = Robot(robot)
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
                  "min_knee_flexion": min_knee_flexion}
-    defaults = robot_settings(description.scale, description.override("ocp"))
+    defaults = settings_for(description)
     settings = replace(defaults, **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input
     known = {}
@@ -615,7 +615,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
 
     from cocomopl.dataset.plan import default_lengths
     from cocomopl.gait import footstep_range, m_gen
-    from cocomopl.ocp.settings import robot_settings
+    from cocomopl.ocp.settings import settings_for
     from cocomopl.robot import Robot
 
     if png is not None:
@@ -644,7 +644,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         defaults={"given": sorted(r.description.get("defaults", {})), "walk_m": list(m_gen(r)),
                   "training_lengths_m": list(default_lengths(r)),
                   "footstep_range": {key: list(v) for key, v in footstep_range(r).items()},
-                  "ocp": robot_settings(r.scale, r.override("ocp")).as_dict()},
+                  "ocp": settings_for(r).as_dict()},
     )
     if png is not None:
         from cocomopl.analysis.plots import plot_robot_posture

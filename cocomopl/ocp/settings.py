@@ -124,12 +124,18 @@ def robot_settings(scale: Scale, overrides: dict | None = None) -> OCPSettings:
     return replace(scaled, **_checked_overrides(overrides or {}))
 
 
+def settings_for(robot) -> OCPSettings:
+    """The default OCP settings of ``robot`` (a :class:`~cocomopl.robot.Robot`): scaled to it
+    (:func:`robot_settings`), with its description's ``defaults.ocp`` in place."""
+    return robot_settings(robot.scale, robot.override("ocp"))
+
+
 def _checked_overrides(overrides: dict) -> dict:
     """A robot description's ``defaults.ocp`` as settings, or an :class:`Error` naming the
     first entry that is not a setting or not a value it takes."""
-    defaults, out = OCPSettings(), {}
+    defaults, out, known = OCPSettings(), {}, {f.name for f in fields(OCPSettings)}
     for name, value in overrides.items():
-        if name not in {f.name for f in fields(OCPSettings)}:
+        if name not in known:
             raise Error(f"robot description: defaults.ocp.{name} is not an OCP setting (a field of OCPSettings)")
         default, number = getattr(defaults, name), isinstance(value, int | float) and not isinstance(value, bool)
         if isinstance(default, tuple):
