@@ -136,20 +136,32 @@ def test_training_signals_are_36_and_all_vary(robot, motions):
     assert sig["phase_time"][0] == 0.0 and sig["phase_time"][-1] == 2.0
 
 
-@pytest.mark.slow
-def test_phase_timing_is_searched_and_the_cheapest_kept(robot):
-    """The solver has no time variable: the single-support duration is searched outside it."""
+def test_phase_timing_is_searched_and_the_cheapest_kept(robot, monkeypatch):
+    """The solver has no time variable: the single-support duration is searched outside it,
+    and the cheapest cyclic step's timing fixes the start and stop steps' (the solver is
+    stubbed, its cost least at 0.7 s: only the search and what it keeps are tested)."""
     from dataclasses import replace
+    from types import SimpleNamespace
 
-    from cocomopl.ocp.solve import solve_length
+    from cocomopl.ocp import solve as ocp_solve
 
-    # two candidates, the least that shows a search: 0.6 s, then 0.7 s, and no step further within the bounds
-    settings = replace(SMALL, ss_duration=0.6, ss_search_step=0.1, ss_bounds=(0.6, 0.7))
-    solutions, info = solve_length(robot, 0.2, settings, kinds=("cyclic",))
-    costs = {c["ss_duration"]: c["cost"] for c in info["duration_search"] if c["cost"] is not None}
-    assert len(info["duration_search"]) >= 2, info["duration_search"]
-    assert info["durations"][1] == min(costs, key=costs.get)
-    assert solutions["cyclic"].stats["cost"] == min(costs.values())
+    solved = []  # (kind, single-support duration) of each OCP handed to the solver
+
+    def solve_with_retries(robot, spec, states, *, settings, guesses):
+        solved.append((spec.kind, settings.ss_duration))
+        cost = 1.0 + (settings.ss_duration - 0.7) ** 2
+        return SimpleNamespace(stats={"cost": cost, "iterations": 10}), [{"guess": "warm start", "converged": True}]
+
+    monkeypatch.setattr(ocp_solve, "warm_up_walk", lambda robot, footstep, settings, **_: SimpleNamespace(xs=["walk"]))
+    monkeypatch.setattr(ocp_solve, "walk_segment", lambda robot, walk, kind: walk.xs)
+    monkeypatch.setattr(ocp_solve, "solve_with_retries", solve_with_retries)
+    settings = replace(SMALL, ss_duration=0.6, ss_search_step=0.1, ss_bounds=(0.5, 0.9))
+    solutions, info = ocp_solve.solve_length(robot, 0.2, settings)
+    searched = {round(c["ss_duration"], 6): c["cost"] for c in info["duration_search"]}
+    assert list(searched) == [0.6, 0.7, 0.8]  # up while the cost falls, and one step past the least
+    assert info["durations"][1] == pytest.approx(0.7)
+    assert solutions["cyclic"].stats["cost"] == min(searched.values())
+    assert sorted(solved[3:]) == [("start", pytest.approx(0.7)), ("stop", pytest.approx(0.7))]
 
 
 @pytest.mark.parametrize("neighbour_works", [True, False])

@@ -112,27 +112,41 @@ class SimModel:
 
     def sole_wrenches(self, data: mujoco.MjData) -> np.ndarray:
         """Contact wrench (2, 6) on each sole from the floor: world axes, about the sole frame."""
-        out = np.zeros((2, 6))
+        # On Python floats, contact by contact, with the same operations as NumPy's: the
+        # stabilizer asks every tick for a handful of contacts, for which NumPy's per-call
+        # overhead costs more than the arithmetic.
+        out = [[0.0] * 6 for _ in SIDES]
+        contacts = data.contact
+        frames, points = contacts.frame.tolist(), contacts.pos.tolist()
+        soles = [data.site_xpos[self.sole_sites[side]].tolist() for side in SIDES]
         force = np.zeros(6)
-        for i in range(data.ncon):
-            contact = data.contact[i]
+        for i, (first, second) in enumerate(zip(contacts.geom1.tolist(), contacts.geom2.tolist())):
             for j, side in enumerate(SIDES):
                 geoms = self.sole_geoms[side]
-                if contact.geom1 not in geoms and contact.geom2 not in geoms:
+                if first not in geoms and second not in geoms:
                     continue
                 mujoco.mj_contactForce(self.mj, data, i, force)
                 # contact-frame force, normal from geom1 to geom2: on geom2 as is, on geom1 reversed
-                f = contact.frame.reshape(3, 3).T @ force[:3] * (1.0 if contact.geom2 in geoms else -1.0)
-                arm = contact.pos - data.site_xpos[self.sole_sites[side]]
-                out[j, :3] += f
-                out[j, 3:] += _cross(arm, f)
-        return out
+                f = _to_world(frames[i], force[:3].tolist(), 1.0 if second in geoms else -1.0)
+                arm = [p - s for p, s in zip(points[i], soles[j])]
+                total = out[j]
+                for a, value in enumerate(f + _cross(arm, f)):
+                    total[a] += value
+        return np.array(out)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> list[float]:
-    """``np.cross`` of two 3-vectors, the same operations on Python floats: ``np.cross``
-    takes about 50 us a call, and the stabilizer sums a few contacts' moments every tick."""
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
+def _to_world(frame: list[float], force: list[float], sign: float) -> list[float]:
+    """``sign * frame.reshape(3, 3).T @ force``: a contact-frame force (its frame's rows are
+    its axes in the world) in world axes."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = frame
+    f0, f1, f2 = force
+    return [(r0 * f0 + r3 * f1 + r6 * f2) * sign, (r1 * f0 + r4 * f1 + r7 * f2) * sign,
+            (r2 * f0 + r5 * f1 + r8 * f2) * sign]
+
+
+def _cross(a: list[float], b: list[float]) -> list[float]:
+    """``np.cross`` of two 3-vectors, the same operations on Python floats."""
+    (a0, a1, a2), (b0, b1, b2) = a, b
     return [a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0]
 
 
