@@ -1,5 +1,5 @@
 """Shared fixtures and helpers: the robot, one small dataset solved once per test session,
-the command line run as a user runs it, and a hand-made motion.
+the command line (through its entry point, or in a process of its own), and a hand-made motion.
 
 The OCPs here are deliberately coarse (50 ms knots, short phases): the tests check
 properties -- dynamics, mirroring, continuity, limits -- not the quality of the gait.  They
@@ -7,7 +7,9 @@ leave out the default knee bend and load transfer, which the coarse knots hold o
 each has its own test on the small cyclic step.
 """
 
+import contextlib
 import fcntl
+import io
 import math
 import os
 import subprocess
@@ -68,6 +70,23 @@ def _shared_dataset(tmp_path_factory, name: str, lengths: tuple) -> Path:
 
 
 def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    """``cocomopl ARGS`` through the command's entry point, :func:`cocomopl.cli.main`, in this
+    process (as click's ``CliRunner`` does): its exit code and what it printed on stdout and
+    stderr.  A new interpreter would add a second or two of imports to every call and test
+    nothing more; :func:`run_cli_process` runs one where the process itself is tested
+    (signals, the environment), and tests/test_readme.py runs the README's lines so."""
+    from cocomopl.cli import main
+
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr), contextlib.chdir(cwd or os.getcwd()):
+        try:
+            code = main(list(args))
+        except SystemExit as exc:  # argparse's usage errors and --help
+            code = exc.code if isinstance(exc.code, int) else int(exc.code is not None)
+    return subprocess.CompletedProcess(["cocomopl", *args], code, stdout.getvalue(), stderr.getvalue())
+
+
+def run_cli_process(*args: str, cwd=None) -> subprocess.CompletedProcess:
     """``cocomopl ARGS`` in a new process, as a user runs it."""
     return subprocess.run([sys.executable, "-m", "cocomopl", *args], capture_output=True, text=True, cwd=cwd,
                           timeout=300)

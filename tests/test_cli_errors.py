@@ -7,7 +7,20 @@ import pytest
 
 from cocomopl.cli import main
 
-from conftest import assert_one_line_error, run_cli
+from conftest import assert_one_line_error, run_cli, run_cli_process
+
+
+@pytest.mark.parametrize("args, words", [
+    (["generate", "--lengths-mm", "abc"], ["'abc'", "not a number"]),  # refused by the parser
+    (["dataset", "info", "nope.h5"], ["nope.h5", "not found"]),  # refused by the command
+])
+def test_a_mistake_in_a_process_of_its_own_is_one_line_and_exit_2(tmp_path, args, words):
+    """The other tests call the command's entry point in the test's process; here the whole
+    program runs as a user runs it, so nothing the interpreter prints at exit escapes them."""
+    result = run_cli_process(*args, cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == ""
+    assert_one_line_error(result, *words)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.slow
