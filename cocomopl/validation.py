@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from cocomopl.errors import Error
-from cocomopl.gait import FOOTSTEP_RANGE, MAX_LENGTH_M, RANGE_ROUNDING, within_range
+from cocomopl.gait import FOOTSTEP_RANGE, MAX_LENGTH_M, RANGE_ROUNDING, footstep_range, within_range
 from cocomopl.motion import Motion
 
 PHASE_KINDS = ("ds", "ss")
@@ -58,12 +58,13 @@ def check_indices(name: str, value: np.ndarray, n: int, *, increasing: bool = Tr
         require(bool(np.all(np.diff(value) > 0)), f"{name} {value.tolist()} are not strictly increasing")
 
 
-def check_steps(steps: list) -> None:
+def check_steps(steps: list, limits: dict[str, tuple[float, float]] = FOOTSTEP_RANGE) -> None:
     """Every step's lengths are numbers of metres within reach, backward steps as far as
-    ``FOOTSTEP_RANGE`` goes, and its widths and turns within that range (give or take
+    ``limits`` go (a robot's :func:`~cocomopl.gait.footstep_range`, by default TALOS's
+    ``FOOTSTEP_RANGE``), and its widths and turns within them (give or take
     ``RANGE_ROUNDING``, as :func:`~cocomopl.gait.check_footstep` takes them)."""
     require(len(steps) >= 1, "the motion has no steps")
-    low = FOOTSTEP_RANGE["length"][0]
+    low = limits["length"][0]
     for spec in steps:
         for length in (spec.start_length, spec.end_length):
             require(
@@ -72,9 +73,9 @@ def check_steps(steps: list) -> None:
                 f"step {spec.kind} has length {length!r}, not a number of metres in {low:g}..{MAX_LENGTH_M:g}",
             )
         for key in ("width", "turn"):
-            lo, hi = FOOTSTEP_RANGE[key]
+            lo, hi = limits[key]
             for value in (getattr(spec, f"start_{key}"), getattr(spec, f"end_{key}")):
-                require(within_range(key, value), f"step {spec.name} has a {key} of {value:g}, outside {lo:g}..{hi:g}")
+                require(within_range(key, value, limits), f"step {spec.name} has a {key} of {value:g}, outside {lo:g}..{hi:g}")
 
 
 def check_time(t: np.ndarray, impacts: np.ndarray) -> None:
@@ -96,8 +97,9 @@ def check_motion(motion: Motion, robot=None, finite: bool = True) -> None:
 
     Checks the kinds and shapes of every array against each other and the robot, strictly
     increasing time (repeated at impacts only), the indices (impacts, step starts, phases)
-    in range, the attributes' types, a unit base quaternion and, unless ``finite`` is
-    False, that no value is NaN or infinite (the ZMP may be NaN where no sole pushes).
+    in range, the attributes' types, the steps within the robot's footstep range (TALOS's
+    without a robot), a unit base quaternion and, unless ``finite`` is False, that no value
+    is NaN or infinite (the ZMP may be NaN where no sole pushes).
     """
     require(isinstance(motion.robot, str) and motion.robot != "", "attribute 'robot' is not a robot name")
     require(isinstance(motion.meta, dict), "attribute 'meta' is not a JSON object")
@@ -129,7 +131,7 @@ def check_motion(motion: Motion, robot=None, finite: bool = True) -> None:
     check_indices("impacts", impacts, n - 1)
     if np.isfinite(t).all():  # a NaN time is reported by the finiteness check (or the dataset check)
         check_time(t, impacts)
-    check_steps(motion.steps)
+    check_steps(motion.steps, FOOTSTEP_RANGE if robot is None else footstep_range(robot))
     check_indices("step_starts", starts, n)
     require(starts[0] == 0, f"step_starts begin at {int(starts[0])}, not 0")
     for kind, first, last in motion.phases:

@@ -344,3 +344,23 @@ def test_a_motion_file_takes_backward_and_turning_steps_within_the_range_and_ref
                        (replace(TURNING, start_width=0.3), "has a width of 0.3, outside -0.05..0.165")]:
         with pytest.raises(Error, match=words):
             check_steps([bad])
+
+
+def test_a_motion_file_is_checked_against_its_own_robots_footstep_range(tmp_path):
+    """A G1 step as wide as TALOS may step is outside G1's range (scaled to its legs): a G1
+    motion file holding one is refused naming G1's bounds, read as TALOS's it would pass."""
+    from cocomopl.data import dataset_path
+    from cocomopl.gait import FOOTSTEP_RANGE, footstep_range
+    from cocomopl.robot import Robot
+
+    g1 = Robot("g1")
+    low, high = footstep_range(g1)["width"]
+    wide = StepSpec("cyclic", 0.2, 0.2, start_width=FOOTSTEP_RANGE["width"][1], end_width=FOOTSTEP_RANGE["width"][1])
+    assert high < wide.start_width
+    check_steps([wide])  # within TALOS's range, the default
+    with h5py.File(dataset_path(robot="g1")) as f:
+        motion = replace(read_motion_group(f["motions"]["cyclic_150_L"], g1), steps=[wide])
+    with h5py.File(tmp_path / "wide.h5", "w") as f:
+        write_motion_group(f.create_group("m"), motion)
+    with h5py.File(tmp_path / "wide.h5") as f, pytest.raises(Error, match=f"width of {wide.start_width:g}, outside {low:g}..{high:g}"):
+        read_motion_group(f["m"], g1)
