@@ -463,15 +463,15 @@ def generate_walk_file(request: WalkRequest, out: str | Path, *, command: str | 
     dynamics filter's error left, the upper-body correction, ``warnings``, and with a
     refinement its summary as ``refine``.
     """
-    from cocomopl.pipeline import generate_walk, walk_provenance
+    from cocomopl.pipeline import generate_walk, robot_provenance, walk_provenance
     from cocomopl.requests import StraightSteps
     from cocomopl.synthesis.step_chain import joint_std_max
 
     out = output_file(out, "motion.h5", inputs=request.inputs())
     walk = generate_walk(request, progress=progress)
     motion = walk.planned
-    provenance = walk_provenance(command, request.model_file(), dataset=request.dataset_file())
-    write_motions(out, {motion.name: motion}, {"robot": walk.robot.name, "producer": motion.producer, **provenance})
+    provenance = walk_provenance(command, request.model_file(), dataset=request.dataset_file()) | robot_provenance(walk.robot)
+    write_motions(out, {motion.name: motion}, {"producer": motion.producer, **provenance})
     rows = [StepRow(step=s.spec.name, duration_s=s.duration, duration_std_s=float(np.linalg.norm(s.duration_std)),
                     joint_std_max_rad=joint_std_max(walk.model, s), in_support=bool(s.in_support),
                     distance_mm=1000 * s.distance) for s in walk.steps]

@@ -301,6 +301,12 @@ def walk_provenance(command: str | None, model_path: str | Path | None = None, *
     return stamp(command, ("mujoco", "pin"), model=bundled_model_path(model_path), **inputs)
 
 
+def robot_provenance(robot: Robot) -> dict:
+    """The robot a report or file was made for: its name and fingerprint
+    (:attr:`~cocomopl.robot.Robot.fingerprint`), which readers check."""
+    return {"robot": robot.name, "robot_model": robot.fingerprint}
+
+
 def simulate_walk(
     robot: Robot,
     motion: Motion,
@@ -415,7 +421,8 @@ def walk_report(
             planned["replanned"] = replanner.motion
         motions = {**planned, "simulated": rollout.measured}
         files = [work / "motions.h5"]
-        write_motions(files[0], motions, {"robot": walk.robot.name, "producer": "cocomopl walk", **provenance})
+        provenance |= robot_provenance(walk.robot)
+        write_motions(files[0], motions, {"producer": "cocomopl walk", **provenance})
         files += plot_comparison(walk.robot, motions, work, top_view=True, goals=goals)
         title = f"cocomopl walk {walk.path.label()}"
         files.append(write_html_viewer(walk.robot, rollout.measured, work / "walk.html", title=title))
@@ -517,11 +524,12 @@ def reproduce_report(
         robot, planned, simulated, figures = _paper_experiment(model_path, dataset_path, progress=progress,
                                                               settings=settings, kajita_variant=kajita_variant,
                                                               robot_name=robot)
+        provenance |= robot_provenance(robot)
         report = ReproduceReport(folder=str(Path(out_dir)), **figures, provenance=provenance)
         motions = {f"{name}_{kind}": m for kind, by_name in (("planned", planned), ("simulated", simulated))
                    for name, m in by_name.items()}
         files = [work / "motions.h5"]
-        write_motions(files[0], motions, {"robot": robot.name, "producer": "cocomopl reproduce", **provenance})
+        write_motions(files[0], motions, {"producer": "cocomopl reproduce", **provenance})
         compared = {"MP planned": planned["MP"], **{f"{name} simulated": m for name, m in simulated.items()}}
         files += plot_comparison(robot, compared, work)
         report.files = _report_files(out_dir, files, "table1.json")

@@ -49,15 +49,18 @@ def test_walk_writes_its_report(walk_report):
 
 
 @pytest.mark.slow
-def test_walk_outputs_carry_their_provenance(walk_report):
+def test_walk_outputs_carry_their_provenance(walk_report, robot):
     out, _ = walk_report
     provenance = json.loads((out / "metrics.json").read_text())["provenance"]
     assert provenance["command"].startswith("cocomopl walk --lengths-mm 250,250")
+    # the robot it walked, named and fingerprinted in the report as in its motions
+    assert (provenance["robot"], provenance["robot_model"]) == (robot.name, robot.fingerprint)
     assert provenance["inputs"]["model"] == file_identity(BUNDLED_MODEL)  # a name and checksum, no path
     assert provenance["versions"]["cocomopl"] and provenance["created"]
     with h5py.File(out / "motions.h5") as f:
         attrs = file_attrs(f)
     assert attrs["command"] == provenance["command"] and attrs["inputs"] == provenance["inputs"]
+    assert attrs["robot_model"] == provenance["robot_model"]
 
 
 @pytest.mark.slow
