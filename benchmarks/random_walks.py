@@ -27,8 +27,10 @@ same whatever ``--n`` (its draw is seeded from ``S`` and ``k``).  The walk's foo
 steps the model flags outside its training support are counted, not refused.
 ``--footstep-dir DIR`` keeps the files (``walk_K.csv``), to replay a walk that fell.
 
-With ``--feedforward``, each walk is also simulated without the stabilizer but with the
-servos' torque feedforward from the plan (``cocomopl walk --no-stabilizer --feedforward``, ``--no-reaim`` for a goal).
+With ``--feedforward``, each walk is also simulated with the servos' torque feedforward from
+the plan, without and with the stabilizer (``cocomopl walk [--no-stabilizer] --feedforward``,
+``--no-reaim`` for a goal; G1's default is the latter).  The other runs are without it, whatever the
+robot's default.
 With ``--reaim``, each walk is also simulated with footstep re-aiming, with and without the
 stabilizer (``cocomopl walk --to ... [--no-stabilizer]``, which re-aims by default).
 ``--dry-run`` prints the walks it would run (the footsteps and landings with ``--footsteps``)
@@ -74,15 +76,16 @@ from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
 # per simulation of a walk: (stabilizer, torque feedforward, footstep re-aiming)
 RUNS = {"stabilizer": (True, False, False), "no_stabilizer": (False, False, False),
-        "feedforward": (False, True, False), "reaim": (True, False, True), "reaim_no_stabilizer": (False, False, True)}
+        "feedforward": (False, True, False), "stabilizer_feedforward": (True, True, False),
+        "reaim": (True, False, True), "reaim_no_stabilizer": (False, False, True)}
 FOOTSTEP_WALK_STEPS = 12  # footsteps a --footsteps walk draws: start, 11 transitions, stop
 
 
 def run_names(goals: bool, feedforward: bool, reaim: bool = False) -> tuple[str, ...]:
     """The simulations of each walk: the generated walk with and without the stabilizer,
-    without it but with torque feedforward, re-aimed with and without it, the Kajita baseline
+    with torque feedforward without and with it, re-aimed with and without it, the Kajita baseline
     (with the stabilizer)."""
-    return (("stabilizer", "no_stabilizer") + (("feedforward",) if feedforward else ())
+    return (("stabilizer", "no_stabilizer") + (("feedforward", "stabilizer_feedforward") if feedforward else ())
             + (("reaim", "reaim_no_stabilizer") if reaim else ()) + (("kajita",) if goals else ()))
 
 
@@ -286,7 +289,7 @@ def main() -> int:
     parser.add_argument("--footstep-dir", type=Path, metavar="DIR",
                         help="with --footsteps, keep each walk's footstep file there (walk_K.csv; default: a temporary folder)")
     parser.add_argument("--feedforward", action="store_true",
-                        help="also simulate each walk without the stabilizer but with the servos' torque feedforward")
+                        help="also simulate each walk with the servos' torque feedforward, without and with the stabilizer")
     parser.add_argument("--reaim", action="store_true",
                         help="also simulate each walk with footstep re-aiming, with and without the stabilizer")
     parser.add_argument("--workers", type=int, default=2)

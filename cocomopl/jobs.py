@@ -616,6 +616,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
     from cocomopl.dataset.plan import default_lengths
     from cocomopl.gait import footstep_range, m_gen
     from cocomopl.ocp.settings import settings_for
+    from cocomopl.pipeline import SimSettings, servo_feedforward
     from cocomopl.robot import Robot
 
     if png is not None:
@@ -644,7 +645,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         defaults={"given": sorted(r.description.get("defaults", {})), "walk_m": list(m_gen(r)),
                   "training_lengths_m": list(default_lengths(r)),
                   "footstep_range": {key: list(v) for key, v in footstep_range(r).items()},
-                  "ocp": settings_for(r).as_dict()},
+                  "ocp": settings_for(r).as_dict(), "feedforward": servo_feedforward(SimSettings(), r)},
     )
     if png is not None:
         from cocomopl.analysis.plots import plot_robot_posture

@@ -282,9 +282,13 @@ def simulation_options(parser: argparse.ArgumentParser) -> None:
 
 def servo_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-stabilizer", action="store_true", help="joint position control only")
-    parser.add_argument("--feedforward", action="store_true",
-                        help="torque feedforward: offset each servo command by the plan's joint torque and velocity "
-                        "over the servo's gains, so that the servos neither sag under the load nor lag")
+    feedforward = parser.add_mutually_exclusive_group()
+    feedforward.add_argument("--feedforward", action="store_true", default=None,
+                             help="torque feedforward: offset each servo command by the plan's joint torque and "
+                             "velocity over the servo's gains, so that the servos neither sag under the load nor lag "
+                             "(default: the robot's, on for G1, off for TALOS)")
+    feedforward.add_argument("--no-feedforward", action="store_false", dest="feedforward",
+                             help="no torque feedforward, whatever the robot's default")
 
 
 def synthesis_options(parser: argparse.ArgumentParser) -> None:

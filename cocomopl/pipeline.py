@@ -84,7 +84,8 @@ class SimSettings:
     stabilizer : add the stabilizer's corrections to the commanded joint angles
     contact_time_constant : s, the sole-floor softness; None: the model's
     reference_cutoff_hz : Hz, the reference's low-pass; None: the rollout's default; 0: none
-    feedforward : the servos' torque feedforward from the plan
+    feedforward : the servos' torque feedforward from the plan; None: the robot's default
+        (:func:`servo_feedforward`)
     sim_model : a MuJoCo model file of the robot made elsewhere
         (:func:`~cocomopl.sim.mujoco_model.load_sim_model`); None: the project's own model
     servos : :class:`~cocomopl.sim.servos.ServoSettings` (gains, latency, encoder noise);
@@ -99,12 +100,21 @@ class SimSettings:
     stabilizer: bool = True
     contact_time_constant: float | None = None
     reference_cutoff_hz: float | None = None
-    feedforward: bool = False
+    feedforward: bool | None = None
     sim_model: str | Path | None = None
     servos: ServoSettings | None = None
     gains: StabilizerGains | None = None
     pushes: tuple[Push, ...] = ()
     hooks: tuple[Hook, ...] = ()
+
+
+def servo_feedforward(settings: SimSettings, robot: Robot) -> bool:
+    """Whether the servos get the plan's torque feedforward: as ``settings`` say, else as the
+    robot's description does (``defaults.simulation.feedforward``, docs/robots.md; G1's
+    motors take a feed-forward torque beside their position target), else not."""
+    if settings.feedforward is not None:
+        return settings.feedforward
+    return bool((robot.override("simulation") or {}).get("feedforward", False))
 
 
 def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):
@@ -362,7 +372,7 @@ def rollout_of(
         sim = build_sim_model(robot, visuals=video is not None, contact_time_constant=settings.contact_time_constant)
     cutoff = REFERENCE_CUTOFF_HZ if settings.reference_cutoff_hz is None else settings.reference_cutoff_hz
     rollout = simulate(sim, motion, stabilizer=settings.stabilizer, progress=progress, reference_cutoff_hz=cutoff,
-                       gains=settings.gains, feedforward=settings.feedforward, servos=settings.servos,
+                       gains=settings.gains, feedforward=servo_feedforward(settings, robot), servos=settings.servos,
                        pushes=settings.pushes, hooks=settings.hooks, replanner=replanner)
     if video is not None:
         render_video(sim, rollout.measured.t, rollout.qpos, path=video, progress=progress,

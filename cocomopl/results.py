@@ -631,7 +631,8 @@ class RobotCheck(Result):
         lines.append(f"defaults{given}: walk {_mm(d['walk_m'])} mm; training lengths {_mm(d['training_lengths_m'])} mm; "
                      f"footsteps length {_mm(r['length'], '..')} mm, width {_mm(r['width'], '..')} mm, turn "
                      + "..".join(f"{math.degrees(x):g}" for x in r["turn"]) + " deg; single support "
-                     f"{d['ocp']['ss_duration']:g} s, ZMP margin {1000 * d['ocp']['zmp_margin']:g} mm")
+                     f"{d['ocp']['ss_duration']:g} s, ZMP margin {1000 * d['ocp']['zmp_margin']:g} mm; "
+                     f"servo torque feedforward {'on' if d['feedforward'] else 'off'} in simulation")
         if self.png:
             lines.append(f"wrote {self.png}")
         return "\n".join(lines)

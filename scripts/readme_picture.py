@@ -1,8 +1,8 @@
 """Make the README pictures, docs/walk.png: a filmstrip of the default walk simulated in MuJoCo.
 
 The default walk (M_gen, steps of 150 to 390 mm for TALOS, scaled to another robot) is
-generated from the robot's bundled primitives and simulated with the stabiliser, as
-``cocomopl walk [--robot NAME]`` does.  The frames are
+generated from the robot's bundled primitives and simulated with the stabiliser (and the
+robot's default servo feedforward: on for G1), as ``cocomopl walk [--robot NAME]`` does.  The frames are
 one stride, the two steps in the middle of the walk, seen from the side by a camera that
 follows the pelvis (``render_frames``' side view; the robot walks to the right), side by side.  Takes about 35 s on
 two cores, most of it the simulation.

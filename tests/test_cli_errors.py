@@ -148,6 +148,13 @@ def test_unreadable_files(tmp_path, small_dataset, command):
     assert_one_line_error(run_cli("dataset", command, str(tmp_path)), "directory")
 
 
+@pytest.mark.parametrize("command", [["walk"], ["simulate", "x.h5"]])
+def test_feedforward_on_and_off_at_once_is_refused(tmp_path, command):
+    result = run_cli(*command, "--feedforward", "--no-feedforward", "--out", str(tmp_path / "out"))
+    assert_one_line_error(result, "--no-feedforward", "--feedforward")
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_plot_unknown_motion(small_dataset, tmp_path):
     result = run_cli("plot", str(small_dataset), "--motion", "nope", "--out", str(tmp_path / "p"))

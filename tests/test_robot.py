@@ -468,6 +468,8 @@ def test_a_robot_facing_backwards_in_its_base_frame_is_refused_and_zero_link_ine
     ({"defaults": {"footstep_range": {"length": [0.3, 0.1]}}}, "defaults.footstep_range.length must be [low, high]"),
     ({"defaults": {"footstep_range": {"side": [0, 1]}}}, "defaults.footstep_range must be an object of length, width, turn"),
     ({"defaults": {"stabilizer": {"ankle_damping": 0}}}, "defaults.stabilizer must be an object of positive"),
+    ({"defaults": {"simulation": {"feedforward": "yes"}}}, "defaults.simulation must be an object of feedforward: true or false"),
+    ({"defaults": {"simulation": {"latency": 0.01}}}, "defaults.simulation must be an object of feedforward"),
 ])
 def test_a_description_key_holding_nonsense_is_one_line_naming_it(tmp_path, fields, words):
     import json
@@ -520,6 +522,20 @@ def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_othe
     check = check_robot(str(path))
     assert check.defaults["given"] == sorted(defaults) and check.defaults["ocp"]["ss_duration"] == 0.5
     assert "the description sets footstep_range, ocp, stabilizer, training_lengths, walk" in check.to_table()
+
+
+def test_the_servos_torque_feedforward_is_the_robots_default_unless_told(robot, g1):
+    """G1's description turns the feedforward on (its motors take a feed-forward torque beside
+    their position target); TALOS's leaves it off, as the paper's HRP-2 ran; either way an
+    explicit setting wins, and `robot check` says which it is."""
+    from cocomopl.jobs import check_robot
+    from cocomopl.pipeline import SimSettings, servo_feedforward
+
+    assert servo_feedforward(SimSettings(), g1) is True and servo_feedforward(SimSettings(), robot) is False
+    assert servo_feedforward(SimSettings(feedforward=False), g1) is False
+    assert servo_feedforward(SimSettings(feedforward=True), robot) is True
+    assert "servo torque feedforward on in simulation" in check_robot("g1").to_table()
+    assert "servo torque feedforward off in simulation" in check_robot("talos").to_table()
 
 
 def test_step_lengths_scale_to_what_the_legs_stand_across(robot, g1):

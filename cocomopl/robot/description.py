@@ -115,8 +115,9 @@ def _checked(desc, where: str) -> dict:
 
 # What a description's "defaults" may set in place of the values scaled from TALOS's
 # (docs/robots.md#overriding-the-scaled-defaults); lengths in m, angles in rad.
-DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer")
+DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer", "simulation")
 STABILIZER_KEYS = ("ankle_damping", "dcm_gain")
+SIMULATION_KEYS = ("feedforward",)
 FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
 
 
@@ -148,6 +149,10 @@ def _check_defaults(defaults, where: str) -> None:
     gains = defaults.get("stabilizer", {})
     if not isinstance(gains, dict) or set(gains) - set(STABILIZER_KEYS) or not all(map(_positive, gains.values())):
         raise fail("stabilizer", f"an object of positive {' and '.join(STABILIZER_KEYS)}", gains)
+    simulation = defaults.get("simulation", {})
+    if not isinstance(simulation, dict) or set(simulation) - set(SIMULATION_KEYS) or not all(
+            isinstance(v, bool) for v in simulation.values()):
+        raise fail("simulation", f"an object of {', '.join(SIMULATION_KEYS)}: true or false", simulation)
 
 
 def _finite(value) -> bool:
