@@ -176,7 +176,7 @@ def cmd_robot_bootstrap(args):
     from cocomopl.bootstrap import bootstrap_robot
 
     return bootstrap_robot(args.robot, args.out, workers=args.workers, scheduler=args.scheduler,
-                           video=not args.no_video, progress=not args.json, command=args.command_line)
+                           video=not args.no_video, progress=True, command=args.command_line)
 
 
 def cmd_export_model(args):

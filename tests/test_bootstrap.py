@@ -25,6 +25,7 @@ def test_a_rerun_keeps_the_finished_stages_and_walks_the_robot(tmp_path):
     shutil.copy(model_path(robot="g1"), out / "model.npz")
     result = run_cli("robot", "bootstrap", "g1", "--out", str(out), "--no-video", "--json")
     assert result.returncode == 0, result.stderr
+    assert "[4/4] walk" in result.stderr  # progress goes on with --json, on stderr
     report = json.loads(result.stdout)
     assert report["robot"] == "g1" and report["check"] is True
     assert [(s["stage"], s["status"]) for s in report["stages"]] == [
