@@ -26,7 +26,12 @@ sideways) that M_gen survives when pushed at each of ``--push-phases`` times spr
 walk, both directions; the survival rate at 60 N is reported too.
 
     python benchmarks/robustness.py [--trials 10] [--combined-trials 20] [--seed 0] [--workers 2] [--push-phases 10]
-        [--classes masses,latency,...] [--json]
+        [--classes masses,latency,...] [--robot talos] [--json]
+
+``--robot`` runs another bundled robot's walks, from its bundled model and dataset: its M_gen
+and M_opt, random lengths over TALOS's 150-400 mm scaled as its step lengths, and the pushes
+scaled by its mass against TALOS's; the servos get the plan's torque feedforward where the
+robot's description says so (G1).
 
 Nothing here is tuned: the stabilizer's gains are those of the random-walk benchmark.
 """
@@ -44,6 +49,8 @@ import numpy as np
 from random_walks import random_lengths
 from tqdm import tqdm
 
+from cocomopl.errors import Error
+from cocomopl.robot import Robot
 from cocomopl.sim.perturbations import Perturbation, Push
 from cocomopl.sim.servos import GROUPS, ServoSettings
 
@@ -79,13 +86,15 @@ def servo_settings(draw: dict | None, rng: np.random.Generator) -> ServoSettings
     return ServoSettings(kp_scale=kp, latency_s=draw.get("latency_s", 0.0))
 
 
-def push_at(draw: tuple | None, rng: np.random.Generator, window: tuple[float, float]) -> list[Push]:
-    """One push of ``draw`` = (force N, axis 0 sagittal or 1 lateral), random sign and time within ``window`` (s)."""
+def push_at(draw: tuple | None, rng: np.random.Generator, window: tuple[float, float],
+            mass_scale: float = 1.0) -> list[Push]:
+    """One push of ``draw`` = (force N, axis 0 sagittal or 1 lateral), scaled by the robot's
+    ``mass_scale``, random sign and time within ``window`` (s)."""
     if draw is None:
         return []
     force, axis = draw
     vector = [0.0, 0.0]
-    vector[axis] = float(force * rng.choice([-1.0, 1.0]))
+    vector[axis] = float(force * mass_scale * rng.choice([-1.0, 1.0]))
     return [Push(float(rng.uniform(*window)), tuple(vector))]
 
 
@@ -93,11 +102,12 @@ _WORKER: dict = {}
 
 
 def _start_worker(walks: dict) -> None:
-    from cocomopl.robot import Robot
+    from cocomopl.pipeline import SimSettings, servo_feedforward
     from cocomopl.sim.mujoco_model import build_sim_model
 
     robot = Robot(next(iter(walks.values())).robot)
-    _WORKER.update(walks=walks, sim=build_sim_model(robot, visuals=False), robot=robot)
+    _WORKER.update(walks=walks, sim=build_sim_model(robot, visuals=False), robot=robot,
+                   feedforward=servo_feedforward(SimSettings(), robot))
 
 
 def run_trial(task: dict) -> dict:
@@ -108,56 +118,62 @@ def run_trial(task: dict) -> dict:
     from cocomopl.sim.perturbations import perturbed
     from cocomopl.sim.rollout import simulate
 
-    sim = _WORKER["sim"]
+    sim, robot = _WORKER["sim"], _WORKER["robot"]
     if task["walk"] == "random":
-        motion = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in task["lengths_mm"]]))).motion
+        motion = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in task["lengths_mm"]]), robot=robot.name)).motion
     else:
         motion = _WORKER["walks"][task["walk"]]
     rng = np.random.default_rng(task["seed"])
     _, bounds, servo_draw, push_draw = CLASSES[task["class"]][task["magnitude"]]
     world = Perturbation(**bounds).draw(rng, sim.mj.nbody, sim.mj.nv)
     servos = servo_settings(servo_draw, rng)
-    pushes = task.get("pushes") or push_at(push_draw, rng, (0.5, motion.duration - 0.5))
-    rollout = simulate(perturbed(sim, world), motion, stabilizer=True, servos=servos, pushes=pushes)
+    pushes = task.get("pushes") or push_at(push_draw, rng, (0.5, motion.duration - 0.5), robot.scale.mass)
+    rollout = simulate(perturbed(sim, world), motion, stabilizer=True, servos=servos, pushes=pushes,
+                       feedforward=_WORKER["feedforward"])
     return {**{k: v for k, v in task.items() if k != "pushes"}, "fell": rollout.fell,
             "pushes": [[p.time_s, *p.force_n] for p in pushes]}
 
 
-def prepare_walks() -> dict:
-    """M_gen, M_opt and the Kajita walk of the paper's experiment (``cocomopl reproduce``'s)."""
-    from cocomopl.data import BUNDLED_DATASET
-    from cocomopl.gait import M_GEN, M_OPT, sequence_specs
+def prepare_walks(robot: str) -> dict:
+    """M_gen, M_opt and the Kajita walk of the paper's experiment (``cocomopl reproduce
+    --robot ROBOT``'s)."""
+    from cocomopl.data import dataset_path
+    from cocomopl.gait import m_opt, sequence_specs
     from cocomopl.motion_file import read_motions
     from cocomopl.ocp.chained_steps import solve_sequence
     from cocomopl.pipeline import generate_walk, kajita_for
     from cocomopl.requests import StraightSteps, WalkRequest
 
-    walk = generate_walk(WalkRequest(StraightSteps(M_GEN)))
-    dataset, attrs = read_motions(BUNDLED_DATASET, dataset=True)
-    m_opt = solve_sequence(walk.robot, sequence_specs(list(M_OPT)), dataset, settings=attrs["settings"])
+    walk = generate_walk(WalkRequest(StraightSteps(), robot=robot))
+    dataset, attrs = read_motions(dataset_path(robot=robot), dataset=True)
+    m_opt = solve_sequence(walk.robot, sequence_specs(list(m_opt(walk.robot))), dataset, settings=attrs["settings"])
     return {"M_gen": walk.motion, "M_opt": m_opt, "Kajita": kajita_for(walk)}
 
 
-def tasks_for(classes: list[str], trials: int, combined_trials: int, seed: int) -> list[dict]:
-    """Every rollout of the class trials, each with its own seed (and random walk)."""
+def tasks_for(classes: list[str], trials: int, combined_trials: int, seed: int, scale=None) -> list[dict]:
+    """Every rollout of the class trials, each with its own seed (and random walk: TALOS's
+    lengths, scaled by the robot's ``scale`` if given)."""
     rng = np.random.default_rng(seed)
+    lengths = (150.0, 400.0) if scale is None else tuple(1000 * scale.length_m(x) for x in (0.15, 0.40))
+    change = 100.0 if scale is None else 100.0 * scale.length
     out = []
     for name in classes:
         for magnitude in range(len(CLASSES[name])):
             for trial in range(combined_trials if name == "combined" else trials):
-                lengths = random_lengths(rng, 100.0)
+                walk_lengths = random_lengths(rng, change, lengths=lengths)
                 trial_seed = int(rng.integers(2**31))
                 for walk in WALKS:
                     task = {"class": name, "magnitude": magnitude, "trial": trial, "walk": walk, "seed": trial_seed}
-                    out.append(task | ({"lengths_mm": lengths} if walk == "random" else {}))
+                    out.append(task | ({"lengths_mm": walk_lengths} if walk == "random" else {}))
     return out
 
 
-def push_tasks(duration: float, phases: int) -> list[dict]:
-    """M_gen pushed sideways at ``phases`` times over its walk, both ways, at each force of the ladder."""
+def push_tasks(duration: float, phases: int, mass_scale: float = 1.0) -> list[dict]:
+    """M_gen pushed sideways at ``phases`` times over its walk, both ways, at each force of the
+    ladder (TALOS's forces; ``force_n`` scaled by the robot's ``mass_scale`` when it pushes)."""
     times = np.linspace(0.5, duration - 0.5, phases)
     return [{"class": "push_lateral", "magnitude": 0, "trial": k, "walk": "M_gen", "seed": 0, "force_n": force,
-             "pushes": [Push(float(t), (0.0, sign * force))]}
+             "pushes": [Push(float(t), (0.0, sign * force * mass_scale))]}
             for force in np.arange(PUSH_STEP_N, MAX_PUSH_N + 1, PUSH_STEP_N)
             for k, t in enumerate(times) for sign in (1.0, -1.0)]
 
@@ -195,6 +211,7 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--push-phases", type=int, default=10, help="times of M_gen's walk it is pushed at (default: %(default)s)")
     parser.add_argument("--classes", default=",".join(CLASSES), help="comma list of classes (default: all)")
+    parser.add_argument("--robot", default="talos", help="a bundled robot (default: %(default)s)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     classes = [c.strip() for c in args.classes.split(",") if c.strip()]
@@ -203,16 +220,20 @@ def main() -> int:
         parser.error(f"unknown classes {unknown}; choose from {','.join(CLASSES)}" if unknown
                      else "--trials, --combined-trials and --workers must be at least 1, --push-phases at least 0")
     started = time.perf_counter()
-    walks = prepare_walks()
-    tasks = tasks_for(classes, args.trials, args.combined_trials, args.seed)
-    pushes = push_tasks(walks["M_gen"].duration, args.push_phases) if args.push_phases else []
+    try:
+        walks = prepare_walks(args.robot)
+    except Error as exc:
+        parser.error(str(exc))
+    scale = None if args.robot == "talos" else Robot(args.robot).scale  # TALOS's figures drawn as before
+    tasks = tasks_for(classes, args.trials, args.combined_trials, args.seed, scale)
+    pushes = push_tasks(walks["M_gen"].duration, args.push_phases, 1.0 if scale is None else scale.mass) if args.push_phases else []
     with mp.get_context("spawn").Pool(args.workers, initializer=_start_worker, initargs=(walks,)) as pool:
         results = list(tqdm(pool.imap_unordered(run_trial, tasks + pushes), total=len(tasks) + len(pushes),
                             desc="rollouts", file=sys.stderr))
     push_rows = [r for r in results if "force_n" in r]
     results = [r for r in results if "force_n" not in r]
     by_class = summarise(results, classes)
-    summary = {"trials": args.trials, "seed": args.seed, "classes": by_class,
+    summary = {"robot": args.robot, "trials": args.trials, "seed": args.seed, "classes": by_class,
                "combined_success_rate": by_class.get("combined", {}).get("by_walk", {}).get("random", math.nan)}
     if push_rows:
         summary["max_lateral_push_n"], rates = largest_push(push_rows)
