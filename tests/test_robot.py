@@ -565,12 +565,10 @@ def test_files_record_the_robots_fingerprint_and_another_models_files_are_refuse
     from cocomopl.motion_file import read_motions
     from cocomopl.primitives.model_file import load_model, model_robot
 
-    from conftest import assert_one_line_error, run_cli, run_cli_process
+    from conftest import assert_one_line_error, run_cli
 
     path = tmp_path / "walk.h5"
-    # in a process of its own, as a user's: a file records the fingerprint only when its process
-    # built one model of the robot, and other tests build TALOS from other descriptions
-    assert run_cli_process("generate", "--lengths-mm", "200,200", "--out", str(path)).returncode == 0
+    assert run_cli("generate", "--lengths-mm", "200,200", "--out", str(path)).returncode == 0
     with h5py.File(path, "a") as f:
         assert f.attrs["robot_model"] == robot.fingerprint  # a digest of the model it was made with
         f.attrs["robot_model"] = "0" * 16  # as if the URDF or the description had changed since
