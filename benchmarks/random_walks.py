@@ -153,6 +153,12 @@ def random_lengths(rng: np.random.Generator, max_change: float, n: int = 9, leng
     return out + out[-1:]  # a stop repeats the length before it
 
 
+def length_range_mm(scale) -> tuple[float, float]:
+    """TALOS's random step lengths, 150-400 mm, scaled as the robot's step lengths (``scale``:
+    its :class:`~cocomopl.robot.scale.Scale`)."""
+    return tuple(1000 * scale.length_m(x) for x in (0.15, 0.40))
+
+
 def walk_seed(seed: int, walk: int) -> int:
     """The seed of walk ``walk``'s draw: one stream per (``seed``, walk), whatever the number of walks."""
     return int(np.random.SeedSequence([seed, walk]).generate_state(1)[0])
@@ -332,7 +338,7 @@ def main() -> int:
                          for k in range(args.n)]
         else:
             scale = Robot(robot_name).scale  # TALOS's range and change, scaled to the model's robot
-            lengths = tuple(1000 * scale.length_m(x) for x in (0.15, 0.40))
+            lengths = length_range_mm(scale)
             args.max_change_mm *= scale.length
             sequences = [{"lengths_mm": random_lengths(rng, args.max_change_mm, lengths=lengths)} for _ in range(args.n)]
         if args.dry_run:

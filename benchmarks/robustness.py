@@ -46,7 +46,7 @@ import sys
 import time
 
 import numpy as np
-from random_walks import random_lengths
+from random_walks import length_range_mm, random_lengths
 from tqdm import tqdm
 
 from cocomopl.errors import Error
@@ -150,12 +150,11 @@ def prepare_walks(robot: str) -> dict:
     return {"M_gen": walk.motion, "M_opt": m_opt, "Kajita": kajita_for(walk)}
 
 
-def tasks_for(classes: list[str], trials: int, combined_trials: int, seed: int, scale=None) -> list[dict]:
+def tasks_for(classes: list[str], trials: int, combined_trials: int, seed: int, scale) -> list[dict]:
     """Every rollout of the class trials, each with its own seed (and random walk: TALOS's
-    lengths, scaled by the robot's ``scale`` if given)."""
+    lengths and change between steps, scaled by the robot's ``scale``)."""
     rng = np.random.default_rng(seed)
-    lengths = (150.0, 400.0) if scale is None else tuple(1000 * scale.length_m(x) for x in (0.15, 0.40))
-    change = 100.0 if scale is None else 100.0 * scale.length
+    lengths, change = length_range_mm(scale), 100.0 * scale.length
     out = []
     for name in classes:
         for magnitude in range(len(CLASSES[name])):
@@ -224,9 +223,9 @@ def main() -> int:
         walks = prepare_walks(args.robot)
     except Error as exc:
         parser.error(str(exc))
-    scale = None if args.robot == "talos" else Robot(args.robot).scale  # TALOS's figures drawn as before
+    scale = Robot(args.robot).scale  # TALOS's: 1 exactly, so its draws are as they were
     tasks = tasks_for(classes, args.trials, args.combined_trials, args.seed, scale)
-    pushes = push_tasks(walks["M_gen"].duration, args.push_phases, 1.0 if scale is None else scale.mass) if args.push_phases else []
+    pushes = push_tasks(walks["M_gen"].duration, args.push_phases, scale.mass) if args.push_phases else []
     with mp.get_context("spawn").Pool(args.workers, initializer=_start_worker, initargs=(walks,)) as pool:
         results = list(tqdm(pool.imap_unordered(run_trial, tasks + pushes), total=len(tasks) + len(pushes),
                             desc="rollouts", file=sys.stderr))
