@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import multiprocessing as mp
 import sys
 import time
@@ -233,7 +232,7 @@ def main() -> int:
     results = [r for r in results if "force_n" not in r]
     by_class = summarise(results, classes)
     summary = {"robot": args.robot, "trials": args.trials, "seed": args.seed, "classes": by_class,
-               "combined_success_rate": by_class.get("combined", {}).get("by_walk", {}).get("random", math.nan)}
+               "combined_success_rate": by_class.get("combined", {}).get("by_walk", {}).get("random")}
     if push_rows:
         summary["max_lateral_push_n"], rates = largest_push(push_rows)
         summary["lateral_push_survival_by_force_n"] = {f"{k:g}": v for k, v in rates.items()}

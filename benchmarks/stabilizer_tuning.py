@@ -94,7 +94,8 @@ def tuned(table: list[dict]) -> dict:
     the standing setting unless the best beats it by more than ``SIGNIFICANT``."""
     from cocomopl.sim.stabilizer import StabilizerGains
 
-    standing_gains = StabilizerGains().as_dict()
+    standing = StabilizerGains()
+    standing_gains = {"ankle_damping": standing.ankle_damping, "dcm_gain": standing.dcm_gain}
     out = {}
     for generator in sorted({r["generator"] for r in table}):
         upright = [r for r in table if r["generator"] == generator and r["falls"] == 0]

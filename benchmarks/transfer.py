@@ -1,20 +1,31 @@
-"""Do the paper's walks survive a MuJoCo model of TALOS written like MuJoCo Menagerie's?
+"""Do the paper's walks survive a MuJoCo model of the robot written like MuJoCo Menagerie's?
 
-Menagerie's ``pal_talos`` differs from the project's own model in its servos and its links:
-knee kp 1000 and ankle kp 10 000 N m/rad without damping, joint friction loss of 1-2 N m,
-link masses that total 4 % more.  This benchmark writes such a model from the project's own
-(every other servo also kp 1000, an assumption: the issue names the knee's and the ankle's),
-with ``--seed`` drawing each joint's friction loss, and walks M_gen, M_opt and the Kajita
-baseline on it (``--sim-model``) with the stabilizer, under three servo settings:
+A look-alike is the project's own model rewritten with the conventions of the robot's
+Menagerie file (``--robot``, :data:`LOOK_ALIKES`):
+
+* **TALOS** (Menagerie's ``pal_talos``): knee kp 1000 and ankle kp 10 000 N m/rad without
+  damping, every other servo also kp 1000 (an assumption: the issue names the knee's and the
+  ankle's), each joint's friction loss drawn in 1-2 N m (``--seed``), every link 4 % heavier;
+  the project's box soles.
+* **G1** (Menagerie's ``unitree_g1``, whose joints are driven by torque motors): the low-gain PD
+  a G1's joints run with, hips kp 100 and kv 2, knees 150 and 4, ankles 40 and 2, every other
+  joint 100 and 2 (an assumption); Menagerie's joint damping 0.5 N m s/rad, armature 0.01 kg m²
+  and friction loss 0.1 N m at every joint; its feet, four 1 mm spheres at the corners of a
+  190 x 40 mm footprint (6 cm behind the ankle to 13 cm ahead) in place of the project's
+  170 x 50 mm box soles; every link 4 % heavier, as TALOS's.
+
+It walks M_gen, M_opt and the Kajita baseline of ``cocomopl reproduce --robot ROBOT`` on it
+(``--sim-model``) with the stabilizer, under three servo settings:
 
 * ``as_written``: the file's servos as they are;
+* ``as_written_feedforward``: those and torque feedforward (``--feedforward``);
 * ``damped``: kv = kp / 50 (``--kv-time-s 0.02``);
 * ``damped_feedforward``: that and torque feedforward (``--feedforward``).
 
 It reports per walk and setting whether the robot fell, the peak vertical force over weight
 and the mean torque; the contacts are 10 ms (``--contact-time-constant-s 0.01``).
 
-    python benchmarks/transfer.py [--seed 0] [--out menagerie_like.xml] [--json]
+    python benchmarks/transfer.py [--robot talos] [--seed 0] [--out menagerie_like.xml] [--json]
 """
 
 from __future__ import annotations
@@ -23,40 +34,118 @@ import argparse
 import json
 import sys
 import tempfile
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-SETTINGS = {"as_written": ({}, False), "damped": ({"all": 0.02}, False), "damped_feedforward": ({"all": 0.02}, True)}
-KP_KNEE_AND_OTHERS = 1000.0  # N m/rad
-KP_ANKLE = 10000.0
-FRICTION_LOSS_NM = (1.0, 2.0)
-MASS_FACTOR = 1.04
+SETTINGS = {"as_written": ({}, False), "as_written_feedforward": ({}, True), "damped": ({"all": 0.02}, False),
+            "damped_feedforward": ({"all": 0.02}, True)}
+
+
+@dataclass(frozen=True)
+class LookAlike:
+    """A Menagerie file's conventions, written into the project's own model.
+
+    Attributes
+    ----------
+    kp : servo stiffness per leg role (``hip``, ``knee``, ``ankle``) and ``other``, N m/rad
+    kv : servo damping, likewise, N m s/rad
+    friction_loss_nm : each joint's friction loss, drawn uniformly in (low, high)
+    damping : each joint's viscous damping, N m s/rad; None: the project's
+    armature : each joint's armature, kg m²; None: the project's
+    mass_factor : every link's mass and inertia times this
+    foot_points : corners (x, y) of a footprint of point contacts in the sole frame, m; None:
+        the project's box soles
+    """
+
+    kp: dict
+    kv: dict
+    friction_loss_nm: tuple[float, float]
+    damping: float | None = None
+    armature: float | None = None
+    mass_factor: float = 1.04
+    foot_points: tuple[tuple[float, float], ...] | None = None
+
+
+LOOK_ALIKES = {
+    "talos": LookAlike(kp={"hip": 1000.0, "knee": 1000.0, "ankle": 10000.0, "other": 1000.0},
+                       kv={"hip": 0.0, "knee": 0.0, "ankle": 0.0, "other": 0.0}, friction_loss_nm=(1.0, 2.0)),
+    "g1": LookAlike(kp={"hip": 100.0, "knee": 150.0, "ankle": 40.0, "other": 100.0},
+                    kv={"hip": 2.0, "knee": 4.0, "ankle": 2.0, "other": 2.0}, friction_loss_nm=(0.1, 0.1),
+                    damping=0.5, armature=0.01,
+                    foot_points=((-0.06, 0.02), (-0.06, -0.02), (0.13, 0.02), (0.13, -0.02))),
+}
+FOOT_POINT_RADIUS_M = 0.001
+
+
+def leg_role_of(robot) -> dict[str, str]:
+    """Joint name -> ``hip``, ``knee`` or ``ankle`` for the legs' joints: the joints above the
+    knee are the hip's, those below it the ankle's."""
+    out = {}
+    for side, roles in robot.leg_roles().items():
+        chain = robot.leg_chain(side)
+        knee = chain.index(roles["knee"])
+        for position, joint in enumerate(chain):
+            out[robot.joint_names[joint]] = "hip" if position < knee else "knee" if position == knee else "ankle"
+    return out
 
 
 def menagerie_like(robot, path: Path, seed: int) -> Path:
-    """The project's own MuJoCo model with Menagerie-like servos, joint friction and masses."""
+    """The project's own model rewritten with the conventions of ``robot``'s Menagerie file."""
     from cocomopl.sim.mujoco_model import mjcf
 
+    look = LOOK_ALIKES[robot.name]
     rng = np.random.default_rng(seed)
     spec = mujoco.MjSpec.from_string(mjcf(robot, visuals=False))
-    ankles = {robot.joint_names[roles[k]] for roles in robot.leg_roles().values() for k in ("ankle_pitch", "ankle_roll")}
+    roles = leg_role_of(robot)
     for actuator in spec.actuators:
-        kp = KP_ANKLE if actuator.target in ankles else KP_KNEE_AND_OTHERS
-        actuator.gainprm[0], actuator.biasprm[1], actuator.biasprm[2] = kp, -kp, 0.0
+        role = roles.get(actuator.target, "other")
+        actuator.gainprm[0], actuator.biasprm[1], actuator.biasprm[2] = look.kp[role], -look.kp[role], -look.kv[role]
     for joint in spec.joints:
         if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
-            joint.frictionloss = float(rng.uniform(*FRICTION_LOSS_NM))
+            joint.frictionloss = float(rng.uniform(*look.friction_loss_nm))
+            if look.damping is not None:
+                joint.damping = [look.damping, 0.0, 0.0]  # MjSpec holds a polynomial: its first term is viscous
+            if look.armature is not None:
+                joint.armature = look.armature
     for body in spec.bodies:
-        body.mass *= MASS_FACTOR
-        body.fullinertia = MASS_FACTOR * np.asarray(body.fullinertia)
+        body.mass *= look.mass_factor
+        body.fullinertia = look.mass_factor * np.asarray(body.fullinertia)
+    if look.foot_points is not None:
+        _point_feet(spec, robot, look.foot_points)
     path.write_text(spec.to_xml())
     return path
 
 
+def _point_feet(spec: mujoco.MjSpec, robot, corners) -> None:
+    """Each sole's colliding geoms replaced by spheres at ``corners`` (x, y) of the sole frame,
+    resting on the sole's plane."""
+    for side in robot.foot_frames:
+        body = spec.joint(robot.joint_names[robot.leg_chain(side)[-1]]).parent
+        sole = next(site for site in body.sites if site.name == f"{side}_sole")
+        colliding = [g for g in body.geoms if g.contype or g.conaffinity]
+        template = colliding[0]
+        for geom in colliding:
+            spec.delete(geom)
+        for k, (x, y) in enumerate(corners):
+            point = np.asarray(sole.pos) + _rotation(sole.quat) @ np.array([x, y, FOOT_POINT_RADIUS_M])
+            body.add_geom(name=f"{side}_foot_point_{k}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[FOOT_POINT_RADIUS_M, 0, 0],
+                          pos=point, contype=template.contype, conaffinity=template.conaffinity, condim=template.condim,
+                          friction=template.friction, solref=template.solref)
+
+
+def _rotation(quat_wxyz) -> np.ndarray:
+    """The rotation matrix of a (w, x, y, z) quaternion."""
+    out = np.zeros(9)
+    mujoco.mju_quat2Mat(out, np.asarray(quat_wxyz, dtype=float))
+    return out.reshape(3, 3)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="talos", choices=sorted(LOOK_ALIKES), help="whose look-alike to write and walk")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="also keep the model file written (default: a temporary one)")
     parser.add_argument("--json", action="store_true")
@@ -70,13 +159,11 @@ def main() -> int:
     from cocomopl.robot import Robot
     from cocomopl.sim.servos import ServoSettings
 
-    walks = prepare_walks()
+    walks = prepare_walks(args.robot)
     robot = Robot(walks["M_gen"].robot)
     with tempfile.TemporaryDirectory() as folder:
         path = menagerie_like(robot, Path(args.out or Path(folder) / "menagerie_like.xml"), args.seed)
-        out = {"seed": args.seed, "model": {"kp_knee_and_others": KP_KNEE_AND_OTHERS, "kp_ankle": KP_ANKLE,
-                                            "friction_loss_nm": FRICTION_LOSS_NM, "mass_factor": MASS_FACTOR},
-               "walks": {}}
+        out = {"robot": robot.name, "seed": args.seed, "model": asdict(LOOK_ALIKES[robot.name]), "walks": {}}
         for name, motion in walks.items():
             for setting, (kv_time, feedforward) in SETTINGS.items():
                 settings = SimSettings(contact_time_constant=0.01, feedforward=feedforward, sim_model=path,
@@ -89,10 +176,10 @@ def main() -> int:
     if args.json:
         print(json.dumps(out))
         return 0
-    print(f"{'walk':8s} {'setting':20s} {'fell':>5s} {'peak F/W':>8s}")
+    print(f"{'walk':8s} {'setting':24s} {'fell':>5s} {'peak F/W':>8s}")
     for name, by_setting in out["walks"].items():
         for setting, row in by_setting.items():
-            print(f"{name:8s} {setting:20s} {row['fell']!s:>5s} {row['peak_force_over_weight']:8.2f}")
+            print(f"{name:8s} {setting:24s} {row['fell']!s:>5s} {row['peak_force_over_weight']:8.2f}")
     return 0
 
 

@@ -495,6 +495,24 @@ def test_an_ocp_setting_a_description_cannot_set_is_one_line_naming_it(ocp, word
     assert "\n" not in str(info.value)
 
 
+def test_the_attitude_rate_loop_crosses_over_where_taloss_does(robot, g1):
+    """The rate term is a damper kp g_r on the inertia the hips turn: kp g_r / I, with kp in
+    proportion to the hips' torque limits, is TALOS's on G1 (to the 0.1 % of the rounded ratio),
+    though G1's hips turn an upper body of a sixth to a seventh of TALOS's inertia with 55-87 % of its
+    torque."""
+    from cocomopl.sim.stabilizer import ATTITUDE_RATE_GAIN, attitude_rate_gains
+
+    def crossover(r: Robot) -> np.ndarray:
+        sides = r.leg_roles()
+        hips = sum(r.tau_max[[sides[side]["hip_roll"], sides[side]["hip_pitch"]]] for side in sides)
+        return hips * np.array(attitude_rate_gains(r)) / r.upper_body_inertia
+
+    assert attitude_rate_gains(robot) == (ATTITUDE_RATE_GAIN, ATTITUDE_RATE_GAIN)
+    assert np.all(robot.upper_body_inertia > 5 * g1.upper_body_inertia)
+    assert np.allclose(crossover(g1), crossover(robot), rtol=5e-3)
+    assert max(attitude_rate_gains(g1)) < ATTITUDE_RATE_GAIN / 3
+
+
 def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_others(tmp_path, g1):
     import json
     from types import SimpleNamespace
@@ -507,7 +525,7 @@ def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_othe
 
     defaults = {"ocp": {"ss_duration": 0.5, "ss_bounds": [0.4, 0.6], "w_load_transfer": 0},
                 "walk": [0.1, 0.2, 0.1], "training_lengths": [0.2, 0.1, 0.15],
-                "footstep_range": {"width": [-0.02, 0.1]}, "stabilizer": {"dcm_gain": 3}}
+                "footstep_range": {"width": [-0.02, 0.1]}, "stabilizer": {"dcm_gain": 3, "attitude_rate_gain": 0.02}}
     path = tmp_path / "mybot.json"
     path.write_text(json.dumps({"name": "mybot", "example_robot_data": "g1", "pelvis": "pelvis", "defaults": defaults}))
     mybot = Robot(str(path))
@@ -519,6 +537,7 @@ def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_othe
     assert footstep_range(mybot) == footstep_range(g1) | {"width": (-0.02, 0.1)}
     mp = SimpleNamespace(producer="primitives")
     assert gains_for(mp, mybot).dcm_gain == 3 and gains_for(mp, mybot).ankle_damping == gains_for(mp, g1).ankle_damping
+    assert gains_for(mp, mybot).attitude_rate_gains == (0.02, 0.02) != gains_for(mp, g1).attitude_rate_gains
     check = check_robot(str(path))
     assert check.defaults["given"] == sorted(defaults) and check.defaults["ocp"]["ss_duration"] == 0.5
     assert "the description sets footstep_range, ocp, stabilizer, training_lengths, walk" in check.to_table()

@@ -116,7 +116,7 @@ def _checked(desc, where: str) -> dict:
 # What a description's "defaults" may set in place of the values scaled from TALOS's
 # (docs/robots.md#overriding-the-scaled-defaults); lengths in m, angles in rad.
 DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer", "simulation")
-STABILIZER_KEYS = ("ankle_damping", "dcm_gain")
+STABILIZER_KEYS = ("ankle_damping", "dcm_gain", "attitude_rate_gain")
 SIMULATION_KEYS = ("feedforward",)
 FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
 
@@ -148,7 +148,7 @@ def _check_defaults(defaults, where: str) -> None:
             raise fail(f"footstep_range.{key}", "[low, high], low < high" + (" (rad)" if key == "turn" else " (m)"), value)
     gains = defaults.get("stabilizer", {})
     if not isinstance(gains, dict) or set(gains) - set(STABILIZER_KEYS) or not all(map(_positive, gains.values())):
-        raise fail("stabilizer", f"an object of positive {' and '.join(STABILIZER_KEYS)}", gains)
+        raise fail("stabilizer", f"an object of positive {', '.join(STABILIZER_KEYS)}", gains)
     simulation = defaults.get("simulation", {})
     if not isinstance(simulation, dict) or set(simulation) - set(SIMULATION_KEYS) or not all(
             isinstance(v, bool) for v in simulation.values()):
@@ -744,6 +744,22 @@ class Robot:
         arms = [i for i in range(self.nu) if i not in legs and self.mirror_perm[i] != i]
         torso = [i for i in range(self.nu) if i not in legs and i not in arms]
         return {"legs": np.array(sorted(legs), dtype=int), "torso": np.array(torso, dtype=int), "arms": np.array(arms, dtype=int)}
+
+    @functools.cached_property
+    def upper_body_inertia(self) -> np.ndarray:
+        """The roll and pitch moments of inertia (2,), kg m², of everything the legs carry (the
+        pelvis, torso, arms and head) about the midpoint of the hips, in the posture: what the
+        hip joints turn when the soles stand on the ground."""
+        data = self.model.createData()
+        pin.forwardKinematics(self.model, data, self.q_ref)
+        hips = {self.leg_chain(side)[0] + 2 for side in self.foot_frames}  # joint ids: the universe and the free flyer first
+        legs = {j for j in range(1, self.model.njoints) if hips & set(self.model.supports[j])}
+        upper = pin.Inertia.Zero()
+        for j in set(range(1, self.model.njoints)) - legs:
+            upper += data.oMi[j].act(self.model.inertias[j])
+        about = np.mean([data.oMi[j].translation for j in hips], axis=0)
+        upper = pin.SE3(np.eye(3), about).actInv(upper)
+        return np.array([upper.matrix()[3, 3], upper.matrix()[4, 4]])
 
     def leg_roles(self) -> dict[str, dict[str, int]]:
         """Per side, the actuated-joint indices of hip roll and pitch, knee, and ankle pitch and

@@ -56,6 +56,12 @@ from cocomopl.sim.hooks import Hook, Step
 # robot it runs on (Robot.scale, docs/robots.md#settings-scaled-to-the-robot).
 ATTITUDE_GAIN = 1.0  # rad of hip command per rad of pelvis attitude error
 ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
+# The rate term is a damper on the upper body through the hip servos, kp g_r θ' against the
+# inertia I the hips turn, and its loop crosses over at kp g_r / I: a command latency costs
+# that times the latency of its phase margin.  On another robot it keeps TALOS's crossover,
+# g_r = ATTITUDE_RATE_GAIN x (2 τ_hip / I)_TALOS / (2 τ_hip / I)_robot per axis (the servos'
+# kp is proportional to their torque limit τ).  TALOS's, roll and pitch, 1/s²:
+REFERENCE_HIP_AUTHORITY = (25.53, 31.54)
 # N m s/rad: D, how slowly an ankle yields to a torque error.  3000, not 300: a stiffer ankle
 # keeps the sole flat through the weight transfer (benchmarks/stabilizer_tuning.py)
 ANKLE_DAMPING = 3000.0
@@ -94,10 +100,13 @@ class StabilizerGains:
     ----------
     ankle_damping : D of the ankle damping control, N m s/rad
     dcm_gain : K of the DCM feedback (dimensionless)
+    attitude_rate_gains : g_r of the attitude feedback's rate term about roll and pitch, s;
+        None: :func:`attitude_rate_gains` of the robot the stabilizer runs on
     """
 
     ankle_damping: float = ANKLE_DAMPING
     dcm_gain: float = DCM_GAIN
+    attitude_rate_gains: tuple[float, float] | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -117,10 +126,25 @@ TUNED_GAINS = {
 def gains_for(reference: Motion, robot: Robot) -> StabilizerGains:
     """The tuned gains for the generator that made ``reference`` (the defaults for any other),
     for ``robot``: the ankle damping scaled by its torques' ratio to TALOS's, on which they
-    were tuned (:class:`~cocomopl.robot.scale.Scale`); either replaced by the description's
-    ``defaults.stabilizer``."""
+    were tuned (:class:`~cocomopl.robot.scale.Scale`), and the attitude rate gains of
+    :func:`attitude_rate_gains`; each replaced by the description's ``defaults.stabilizer``
+    (its ``attitude_rate_gain``, in s, about both axes)."""
     tuned = TUNED_GAINS.get(reference.producer, StabilizerGains())
-    return replace(tuned, ankle_damping=tuned.ankle_damping * robot.scale.torque, **(robot.override("stabilizer") or {}))
+    override = dict(robot.override("stabilizer") or {})
+    rate = override.pop("attitude_rate_gain", None)
+    rates = attitude_rate_gains(robot) if rate is None else (rate, rate)
+    return replace(tuned, ankle_damping=tuned.ankle_damping * robot.scale.torque,
+                   attitude_rate_gains=tuple(float(x) for x in rates), **override)
+
+
+def attitude_rate_gains(robot: Robot) -> tuple[float, float]:
+    """The attitude feedback's rate gains (roll, pitch), s: TALOS's, scaled to keep the
+    crossover of its loop through the hips (:data:`REFERENCE_HIP_AUTHORITY`).  TALOS gets
+    exactly its own; G1, whose hips turn a light upper body, 0.0078 and 0.0144 s."""
+    roles = robot.leg_roles()["left"]
+    authority = 2.0 * robot.tau_max[[roles["hip_roll"], roles["hip_pitch"]]] / robot.upper_body_inertia
+    roll, pitch = ATTITUDE_RATE_GAIN * np.round(np.array(REFERENCE_HIP_AUTHORITY) / authority, 3)
+    return float(roll), float(pitch)
 
 
 def leg_maps(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -163,6 +187,8 @@ class Stabilizer(Hook):
         self.dcm_gain = gains.dcm_gain
         self.ankle_damping = gains.ankle_damping
         self.robot = sim.robot
+        rates = gains.attitude_rate_gains
+        self.rate_gains = attitude_rate_gains(self.robot) if rates is None else tuple(rates)
         self.roles = self.robot.leg_roles()
         # the limits tuned on TALOS, scaled to the robot's weight and size
         scale = self.robot.scale
@@ -224,8 +250,8 @@ class Stabilizer(Hook):
             roles = self.roles[side]
             ankles = [roles["ankle_pitch"], roles["ankle_roll"]]
             if self.contact[k, j]:
-                out[roles["hip_roll"]] = ATTITUDE_GAIN * error[0] + ATTITUDE_RATE_GAIN * rate[0]
-                out[roles["hip_pitch"]] = ATTITUDE_GAIN * error[1] + ATTITUDE_RATE_GAIN * rate[1]
+                out[roles["hip_roll"]] = ATTITUDE_GAIN * error[0] + self.rate_gains[0] * rate[0]
+                out[roles["hip_pitch"]] = ATTITUDE_GAIN * error[1] + self.rate_gains[1] * rate[1]
                 moment = self.forces[k, j] * np.array([shift[1], -shift[0]])  # of the sole's CoP moved by shift
                 target = self.tau[k, ankles] + self.moments[k, j, ankles] @ moment
                 torque_error = self.sim.joint_torques(data)[ankles] - target

@@ -1,0 +1,62 @@
+"""``benchmarks/transfer.py`` writes a robot's Menagerie-like model that the project reads
+as a model file made elsewhere (``--sim-model``): G1's with Menagerie's point feet, joint
+damping, armature and friction loss, its low-gain servos per leg role and heavier links."""
+
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from cocomopl.robot import Robot
+from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
+from transfer import LOOK_ALIKES, leg_role_of, menagerie_like  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def g1() -> Robot:
+    return Robot("g1")
+
+
+def test_g1_look_alike_has_menageries_feet_joints_servos_and_masses(g1, tmp_path):
+    look = LOOK_ALIKES["g1"]
+    own = build_sim_model(g1, visuals=False)
+    sim = load_sim_model(g1, menagerie_like(g1, tmp_path / "g1_like.xml", seed=0), 0.01)
+    mj = sim.mj
+    for side in ("left", "right"):
+        geoms = sim.sole_geoms[side]
+        assert len(geoms) == len(look.foot_points)
+        assert all(mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE for g in geoms)
+        data = mujoco.MjData(mj)
+        data.qpos[:] = sim.qpos(g1.q_ref)
+        mujoco.mj_kinematics(mj, data)
+        sole = data.site_xpos[sim.sole_sites[side]]
+        R = data.site_xmat[sim.sole_sites[side]].reshape(3, 3)
+        corners = sorted(tuple(np.round(R.T @ (data.geom_xpos[g] - sole), 6)[:2]) for g in geoms)
+        assert np.allclose(corners, sorted(look.foot_points))
+        lowest = min(data.geom_xpos[g][2] - mj.geom_size[g][0] for g in geoms)
+        assert abs(lowest - sole[2]) < 1e-9  # the points rest on the sole's plane, as the box did
+    roles = leg_role_of(g1)
+    assert sorted(set(roles.values())) == ["ankle", "hip", "knee"]
+    assert sum(role == "knee" for role in roles.values()) == 2
+    kp, kv = sim.servo_gains()
+    for i, name in enumerate(g1.joint_names):
+        role = roles.get(name, "other")
+        assert (kp[i], kv[i]) == (look.kp[role], look.kv[role])
+    hinges = sim.dof_index
+    assert np.allclose(mj.dof_damping[hinges], look.damping) and np.allclose(mj.dof_armature[hinges], look.armature)
+    assert np.allclose(mj.dof_frictionloss[hinges], look.friction_loss_nm[0])
+    assert mj.body_mass.sum() == pytest.approx(look.mass_factor * own.mj.body_mass.sum())
+
+
+def test_taloss_look_alike_keeps_its_box_soles_and_stiff_undamped_servos(robot, tmp_path):
+    sim = load_sim_model(robot, menagerie_like(robot, tmp_path / "talos_like.xml", seed=0), 0.01)
+    kp, kv = sim.servo_gains()
+    ankles = [roles[k] for roles in robot.leg_roles().values() for k in ("ankle_pitch", "ankle_roll")]
+    assert set(kp[ankles]) == {10000.0} and set(np.delete(kp, ankles)) == {1000.0} and not kv.any()
+    assert all(sim.mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in sim.sole_geoms["left"])
+    friction = sim.mj.dof_frictionloss[sim.dof_index]
+    assert friction.min() >= 1.0 and friction.max() <= 2.0 and len(set(friction)) == len(friction)
