@@ -496,21 +496,41 @@ def test_an_ocp_setting_a_description_cannot_set_is_one_line_naming_it(ocp, word
 
 
 def test_the_attitude_rate_loop_crosses_over_where_taloss_does(robot, g1):
-    """The rate term is a damper kp g_r on the inertia the hips turn: kp g_r / I, with kp in
-    proportion to the hips' torque limits, is TALOS's on G1 (to the 0.1 % of the rounded ratio),
-    though G1's hips turn an upper body of a sixth to a seventh of TALOS's inertia with 55-87 % of its
-    torque."""
+    """The rate term is a damper kp g_r on the inertia the hips turn: kp g_r / I is TALOS's on
+    G1 (to the 0.1 % of the rounded ratio), though G1's hips turn an upper body of a sixth to a
+    seventh of TALOS's inertia."""
+    from cocomopl.sim.mujoco_model import servo_stiffness
     from cocomopl.sim.stabilizer import ATTITUDE_RATE_GAIN, attitude_rate_gains
 
     def crossover(r: Robot) -> np.ndarray:
-        sides = r.leg_roles()
-        hips = sum(r.tau_max[[sides[side]["hip_roll"], sides[side]["hip_pitch"]]] for side in sides)
+        sides, kp = r.leg_roles(), servo_stiffness(r)
+        hips = sum(kp[[sides[side]["hip_roll"], sides[side]["hip_pitch"]]] for side in sides)
         return hips * np.array(attitude_rate_gains(r)) / r.upper_body_inertia
 
     assert attitude_rate_gains(robot) == (ATTITUDE_RATE_GAIN, ATTITUDE_RATE_GAIN)
     assert np.all(robot.upper_body_inertia > 5 * g1.upper_body_inertia)
     assert np.allclose(crossover(g1), crossover(robot), rtol=5e-3)
-    assert max(attitude_rate_gains(g1)) < ATTITUDE_RATE_GAIN / 3
+    assert max(attitude_rate_gains(g1)) < ATTITUDE_RATE_GAIN
+
+
+def test_leg_servos_hold_a_robots_weight_no_more_stiffly_than_taloss(robot, g1):
+    """kp over the robot's torque ratio (mass x leg length) is at most TALOS's for every leg
+    joint's role: TALOS keeps full torque at 30 mrad everywhere, G1's strong hips and knees are
+    capped, and joints off the legs keep full torque at 30 mrad."""
+    from cocomopl.sim.mujoco_model import FULL_TORQUE_ERROR, servo_stiffness
+
+    assert np.array_equal(servo_stiffness(robot), robot.tau_max / FULL_TORQUE_ERROR)
+    taloss = {role: servo_stiffness(robot)[joint] for joint, role in robot.leg_joint_roles().items()}
+    assert len(taloss) == 6
+    kp, full = servo_stiffness(g1), g1.tau_max / FULL_TORQUE_ERROR
+    roles = g1.leg_joint_roles()
+    assert sorted(roles) == g1.leg_joint_indices() and sorted(set(roles.values())) == sorted(taloss)
+    for joint, role in roles.items():
+        assert kp[joint] <= taloss[role] * g1.scale.torque * (1 + 1e-12) and kp[joint] <= full[joint]
+    capped = [g1.joint_names[j] for j in roles if kp[j] < full[j]]
+    assert {"left_knee_joint", "right_hip_pitch_joint", "left_hip_roll_joint"} <= set(capped)
+    others = g1.upper_body_joint_indices()
+    assert np.array_equal(kp[others], full[others])
 
 
 def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_others(tmp_path, g1):

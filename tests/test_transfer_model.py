@@ -13,7 +13,7 @@ from cocomopl.robot import Robot
 from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
-from transfer import LOOK_ALIKES, leg_role_of, menagerie_like  # noqa: E402
+from transfer import LOOK_ALIKES, leg_role_of, menagerie_like
 
 
 @pytest.fixture(scope="module")

@@ -778,6 +778,17 @@ class Robot:
             out[side] = {"hip_roll": xs[0], "hip_pitch": ys[0], "knee": ys[1], "ankle_pitch": ys[-1], "ankle_roll": xs[-1]}
         return out
 
+    def leg_joint_roles(self) -> dict[int, str]:
+        """Actuated-joint index -> role of each leg joint :meth:`leg_roles` names, and
+        ``hip_yaw`` for a Z joint above the knee."""
+        out = {}
+        names = self.axis_names()
+        for side, roles in self.leg_roles().items():
+            out.update({joint: role for role, joint in roles.items()})
+            chain = self.leg_chain(side)
+            out.update({j: "hip_yaw" for j in chain[:chain.index(roles["knee"])] if names[j] == "Z"})
+        return out
+
     def axis_names(self) -> list[str]:
         """Per actuated joint, ``"X"``, ``"Y"`` or ``"Z"``: the pelvis axis its own axis is
         nearest to at the neutral configuration (roll, pitch or yaw)."""

@@ -23,6 +23,10 @@ REFERENCE_ARMATURE_KG_M2 = 0.1
 REFERENCE_OMEGA = 3.345
 # TALOS's longest default step (its training lengths and M_gen), m
 REFERENCE_LONGEST_STEP_M = 0.4
+# TALOS's leg joints' torque limits (its URDF), N m, by role: another robot's leg servos are
+# no stiffer for its weight and size than these scaled by its torque ratio (sim.mujoco_model)
+REFERENCE_LEG_TORQUES_NM = {"hip_yaw": 100.0, "hip_roll": 160.0, "hip_pitch": 160.0, "knee": 300.0,
+                            "ankle_pitch": 160.0, "ankle_roll": 100.0}
 
 
 @dataclass(frozen=True)

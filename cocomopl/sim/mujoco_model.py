@@ -23,6 +23,7 @@ import pinocchio as pin
 from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
 from cocomopl.robot import Robot
+from cocomopl.robot.scale import REFERENCE_LEG_TORQUES_NM
 
 TIMESTEP = 0.001  # s: a 1 kHz control and integration loop
 FRICTION = 1.0  # sole-floor Coulomb coefficient
@@ -229,10 +230,21 @@ def _body(robot: Robot, jid: int, visual, meshes: dict[str, tuple[Path, np.ndarr
     return f'<body name="{model.names[jid]}" {_pose(placement)}>\n' + "\n".join(parts) + "\n</body>"
 
 
+def servo_stiffness(robot: Robot) -> np.ndarray:
+    """kp (nu,) of the project's position servos, N m/rad: full torque at :data:`FULL_TORQUE_ERROR`,
+    but a leg joint no stiffer than TALOS's joint of its role scaled by the robot's torque ratio
+    (mass x leg length), so that its servos hold the robot's weight no more stiffly than TALOS's
+    hold TALOS's.  TALOS's are its own; G1's hips and knees, strong for its 33 kg, get 31-58 %
+    of full torque at 30 mrad."""
+    kp = robot.tau_max / FULL_TORQUE_ERROR
+    for joint, role in robot.leg_joint_roles().items():
+        kp[joint] = min(kp[joint], REFERENCE_LEG_TORQUES_NM[role] * robot.scale.torque / FULL_TORQUE_ERROR)
+    return kp
+
+
 def _servos(robot: Robot):
     """Per actuated joint, the project's position servo: name, kp, kv, torque limit, command range."""
-    for name, tau, lower, upper in zip(robot.joint_names, robot.tau_max, robot.q_lower, robot.q_upper):
-        kp = tau / FULL_TORQUE_ERROR
+    for name, kp, tau, lower, upper in zip(robot.joint_names, servo_stiffness(robot), robot.tau_max, robot.q_lower, robot.q_upper):
         yield name, kp, kp * SERVO_DAMPING_TIME, tau, (lower, upper)
 
 

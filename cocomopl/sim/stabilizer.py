@@ -51,6 +51,7 @@ from cocomopl.dynamics import GRAVITY, SIDES
 from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 from cocomopl.sim.hooks import Hook, Step
+from cocomopl.sim.mujoco_model import servo_stiffness
 
 # The gains and limits in N, m and N m below are TALOS's: the stabilizer scales them to the
 # robot it runs on (Robot.scale, docs/robots.md#settings-scaled-to-the-robot).
@@ -59,9 +60,9 @@ ATTITUDE_RATE_GAIN = 0.05  # s: damping of the attitude feedback
 # The rate term is a damper on the upper body through the hip servos, kp g_r θ' against the
 # inertia I the hips turn, and its loop crosses over at kp g_r / I: a command latency costs
 # that times the latency of its phase margin.  On another robot it keeps TALOS's crossover,
-# g_r = ATTITUDE_RATE_GAIN x (2 τ_hip / I)_TALOS / (2 τ_hip / I)_robot per axis (the servos'
-# kp is proportional to their torque limit τ).  TALOS's, roll and pitch, 1/s²:
-REFERENCE_HIP_AUTHORITY = (25.53, 31.54)
+# g_r = ATTITUDE_RATE_GAIN x (2 kp_hip / I)_TALOS / (2 kp_hip / I)_robot per axis, with the
+# project's servos' kp (sim.mujoco_model.servo_stiffness).  TALOS's, roll and pitch, 1/s²:
+REFERENCE_HIP_AUTHORITY = (850.9, 1051.3)
 # N m s/rad: D, how slowly an ankle yields to a torque error.  3000, not 300: a stiffer ankle
 # keeps the sole flat through the weight transfer (benchmarks/stabilizer_tuning.py)
 ANKLE_DAMPING = 3000.0
@@ -140,9 +141,10 @@ def gains_for(reference: Motion, robot: Robot) -> StabilizerGains:
 def attitude_rate_gains(robot: Robot) -> tuple[float, float]:
     """The attitude feedback's rate gains (roll, pitch), s: TALOS's, scaled to keep the
     crossover of its loop through the hips (:data:`REFERENCE_HIP_AUTHORITY`).  TALOS gets
-    exactly its own; G1, whose hips turn a light upper body, 0.0078 and 0.0144 s."""
+    exactly its own; G1, whose hips turn a light upper body, 0.025 and 0.0295 s."""
     roles = robot.leg_roles()["left"]
-    authority = 2.0 * robot.tau_max[[roles["hip_roll"], roles["hip_pitch"]]] / robot.upper_body_inertia
+    kp = servo_stiffness(robot)[[roles["hip_roll"], roles["hip_pitch"]]]
+    authority = 2.0 * kp / robot.upper_body_inertia
     roll, pitch = ATTITUDE_RATE_GAIN * np.round(np.array(REFERENCE_HIP_AUTHORITY) / authority, 3)
     return float(roll), float(pitch)
 
