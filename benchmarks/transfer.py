@@ -3,16 +3,21 @@
 A look-alike is the project's own model rewritten with the conventions of the robot's
 Menagerie file (``--robot``, :data:`LOOK_ALIKES`):
 
-* **TALOS** (Menagerie's ``pal_talos``): knee kp 1000 and ankle kp 10 000 N m/rad without
-  damping, every other servo also kp 1000 (an assumption: the issue names the knee's and the
-  ankle's), each joint's friction loss drawn in 1-2 N m (``--seed``), every link 4 % heavier;
-  the project's box soles.
+* **TALOS** (Menagerie's ``pal_talos`` with its position servos): kp 1000 N m/rad at the hips
+  and knees and 10 000 at the ankles, 100 at the arms, 2000 and 500 at the torso, 200 and 1000
+  at the head, none damped; joint damping 1 N m s/rad at the arms and torso, 0.5 at the head,
+  none at the legs; no armature (the project's model reflects the rotors' 0.1 kg m² from the
+  SRDF); each joint's friction loss drawn in 1-2 N m (``--seed``), every link 4 % heavier; the
+  project's box soles.
 * **G1** (Menagerie's ``unitree_g1``, whose joints are driven by torque motors): the low-gain PD
   a G1's joints run with, hips kp 100 and kv 2, knees 150 and 4, ankles 40 and 2, every other
   joint 100 and 2 (an assumption); Menagerie's joint damping 0.5 N m s/rad, armature 0.01 kg m²
   and friction loss 0.1 N m at every joint; its feet, four 1 mm spheres at the corners of a
   190 x 40 mm footprint (6 cm behind the ankle to 13 cm ahead) in place of the project's
   170 x 50 mm box soles; every link 4 % heavier, as TALOS's.
+
+Each setting is looked up for a joint by its name, then its leg role (``hip``, ``knee``,
+``ankle``), then its group (``torso``, ``arms``), then ``all``.
 
 It walks M_gen, M_opt and the Kajita baseline of ``cocomopl reproduce --robot ROBOT`` on it
 (``--sim-model``) with the stabilizer, under three servo settings:
@@ -34,7 +39,7 @@ import argparse
 import json
 import sys
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -46,14 +51,15 @@ SETTINGS = {"as_written": ({}, False), "as_written_feedforward": ({}, True), "da
 
 @dataclass(frozen=True)
 class LookAlike:
-    """A Menagerie file's conventions, written into the project's own model.
+    """A Menagerie file's conventions, written into the project's own model.  Per-joint
+    settings are dicts keyed by joint name, leg role, group or ``all`` (:func:`setting_of`).
 
     Attributes
     ----------
-    kp : servo stiffness per leg role (``hip``, ``knee``, ``ankle``) and ``other``, N m/rad
-    kv : servo damping, likewise, N m s/rad
+    kp : servo stiffness, N m/rad
+    kv : servo damping, N m s/rad
     friction_loss_nm : each joint's friction loss, drawn uniformly in (low, high)
-    damping : each joint's viscous damping, N m s/rad; None: the project's
+    damping : joint viscous damping, N m s/rad; a joint it does not name keeps the project's
     armature : each joint's armature, kg m²; None: the project's
     mass_factor : every link's mass and inertia times this
     foot_points : corners (x, y) of a footprint of point contacts in the sole frame, m; None:
@@ -63,21 +69,29 @@ class LookAlike:
     kp: dict
     kv: dict
     friction_loss_nm: tuple[float, float]
-    damping: float | None = None
+    damping: dict = field(default_factory=dict)
     armature: float | None = None
     mass_factor: float = 1.04
     foot_points: tuple[tuple[float, float], ...] | None = None
 
 
 LOOK_ALIKES = {
-    "talos": LookAlike(kp={"hip": 1000.0, "knee": 1000.0, "ankle": 10000.0, "other": 1000.0},
-                       kv={"hip": 0.0, "knee": 0.0, "ankle": 0.0, "other": 0.0}, friction_loss_nm=(1.0, 2.0)),
-    "g1": LookAlike(kp={"hip": 100.0, "knee": 150.0, "ankle": 40.0, "other": 100.0},
-                    kv={"hip": 2.0, "knee": 4.0, "ankle": 2.0, "other": 2.0}, friction_loss_nm=(0.1, 0.1),
-                    damping=0.5, armature=0.01,
+    "talos": LookAlike(kp={"hip": 1000.0, "knee": 1000.0, "ankle": 10000.0, "arms": 100.0, "torso_1_joint": 2000.0,
+                           "torso_2_joint": 500.0, "head_1_joint": 200.0, "head_2_joint": 1000.0},
+                       kv={"all": 0.0}, friction_loss_nm=(1.0, 2.0),
+                       damping={"arms": 1.0, "torso": 1.0, "head_1_joint": 0.5, "head_2_joint": 0.5}, armature=0.0),
+    "g1": LookAlike(kp={"hip": 100.0, "knee": 150.0, "ankle": 40.0, "all": 100.0},
+                    kv={"hip": 2.0, "knee": 4.0, "ankle": 2.0, "all": 2.0}, friction_loss_nm=(0.1, 0.1),
+                    damping={"all": 0.5}, armature=0.01,
                     foot_points=((-0.06, 0.02), (-0.06, -0.02), (0.13, 0.02), (0.13, -0.02))),
 }
 FOOT_POINT_RADIUS_M = 0.001
+
+
+def setting_of(values: dict, *keys: str) -> float | None:
+    """The first of ``values`` named by ``keys`` (a joint's name, role and group), or its
+    ``all``; None if none is."""
+    return next((values[k] for k in (*keys, "all") if k in values), None)
 
 
 def leg_role_of(robot) -> dict[str, str]:
@@ -100,14 +114,20 @@ def menagerie_like(robot, path: Path, seed: int) -> Path:
     rng = np.random.default_rng(seed)
     spec = mujoco.MjSpec.from_string(mjcf(robot, visuals=False))
     roles = leg_role_of(robot)
+    groups = {robot.joint_names[i]: group for group, joints in robot.joint_groups().items() for i in joints}
+
+    def keys(name: str) -> tuple[str, ...]:
+        return (name, roles.get(name, ""), groups.get(name, ""))
+
     for actuator in spec.actuators:
-        role = roles.get(actuator.target, "other")
-        actuator.gainprm[0], actuator.biasprm[1], actuator.biasprm[2] = look.kp[role], -look.kp[role], -look.kv[role]
+        kp, kv = setting_of(look.kp, *keys(actuator.target)), setting_of(look.kv, *keys(actuator.target))
+        actuator.gainprm[0], actuator.biasprm[1], actuator.biasprm[2] = kp, -kp, -kv
     for joint in spec.joints:
         if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
             joint.frictionloss = float(rng.uniform(*look.friction_loss_nm))
-            if look.damping is not None:
-                joint.damping = [look.damping, 0.0, 0.0]  # MjSpec holds a polynomial: its first term is viscous
+            damping = setting_of(look.damping, *keys(joint.name))
+            if damping is not None:
+                joint.damping = [damping, 0.0, 0.0]  # MjSpec holds a polynomial: its first term is viscous
             if look.armature is not None:
                 joint.armature = look.armature
     for body in spec.bodies:

@@ -13,7 +13,7 @@ from cocomopl.robot import Robot
 from cocomopl.sim.mujoco_model import build_sim_model, load_sim_model
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
-from transfer import LOOK_ALIKES, leg_role_of, menagerie_like
+from transfer import LOOK_ALIKES, leg_role_of, menagerie_like, setting_of
 
 
 @pytest.fixture(scope="module")
@@ -44,19 +44,33 @@ def test_g1_look_alike_has_menageries_feet_joints_servos_and_masses(g1, tmp_path
     assert sum(role == "knee" for role in roles.values()) == 2
     kp, kv = sim.servo_gains()
     for i, name in enumerate(g1.joint_names):
-        role = roles.get(name, "other")
-        assert (kp[i], kv[i]) == (look.kp[role], look.kv[role])
+        assert (kp[i], kv[i]) == (setting_of(look.kp, name, roles.get(name, "")), setting_of(look.kv, name, roles.get(name, "")))
     hinges = sim.dof_index
-    assert np.allclose(mj.dof_damping[hinges], look.damping) and np.allclose(mj.dof_armature[hinges], look.armature)
+    assert np.allclose(mj.dof_damping[hinges], 0.5) and np.allclose(mj.dof_armature[hinges], look.armature)
     assert np.allclose(mj.dof_frictionloss[hinges], look.friction_loss_nm[0])
     assert mj.body_mass.sum() == pytest.approx(look.mass_factor * own.mj.body_mass.sum())
 
 
-def test_taloss_look_alike_keeps_its_box_soles_and_stiff_undamped_servos(robot, tmp_path):
+def test_taloss_look_alike_has_menageries_servos_no_armature_and_the_projects_box_soles(robot, tmp_path):
     sim = load_sim_model(robot, menagerie_like(robot, tmp_path / "talos_like.xml", seed=0), 0.01)
     kp, kv = sim.servo_gains()
+    by_name = dict(zip(robot.joint_names, kp))
     ankles = [roles[k] for roles in robot.leg_roles().values() for k in ("ankle_pitch", "ankle_roll")]
-    assert set(kp[ankles]) == {10000.0} and set(np.delete(kp, ankles)) == {1000.0} and not kv.any()
+    knees = [roles["knee"] for roles in robot.leg_roles().values()]
+    assert set(kp[ankles]) == {10000.0} and set(kp[knees]) == {1000.0} and not kv.any()
+    assert set(kp[robot.joint_groups()["arms"]]) == {100.0} and by_name["torso_1_joint"] == 2000.0
     assert all(sim.mj.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in sim.sole_geoms["left"])
+    assert not sim.mj.dof_armature[sim.dof_index].any()
+    legs = sim.dof_index[robot.leg_joint_indices()]
+    assert not sim.mj.dof_damping[legs].any() and set(sim.mj.dof_damping[sim.dof_index[robot.joint_groups()["arms"]]]) == {1.0}
     friction = sim.mj.dof_frictionloss[sim.dof_index]
     assert friction.min() >= 1.0 and friction.max() <= 2.0 and len(set(friction)) == len(friction)
+
+
+def test_a_setting_is_looked_up_by_name_then_role_then_group_then_all():
+    values = {"knee_joint": 1.0, "knee": 2.0, "arms": 3.0, "all": 4.0}
+    assert setting_of(values, "knee_joint", "knee", "") == 1.0
+    assert setting_of(values, "other_knee", "knee", "") == 2.0
+    assert setting_of(values, "elbow", "", "arms") == 3.0
+    assert setting_of(values, "neck", "", "torso") == 4.0
+    assert setting_of({"arms": 3.0}, "neck", "", "torso") is None
