@@ -618,6 +618,8 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
     from cocomopl.ocp.settings import settings_for
     from cocomopl.pipeline import SimSettings, servo_feedforward
     from cocomopl.robot import Robot
+    from cocomopl.sim.mujoco_model import servo_stiffness
+    from cocomopl.sim.stabilizer import robot_gains
 
     if png is not None:
         check_output(png)
@@ -645,7 +647,9 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         defaults={"given": sorted(r.description.get("defaults", {})), "walk_m": list(m_gen(r)),
                   "training_lengths_m": list(default_lengths(r)),
                   "footstep_range": {key: list(v) for key, v in footstep_range(r).items()},
-                  "ocp": settings_for(r).as_dict(), "feedforward": servo_feedforward(SimSettings(), r)},
+                  "ocp": settings_for(r).as_dict(), "feedforward": servo_feedforward(SimSettings(), r),
+                  "stabilizer": robot_gains(r).as_dict(),
+                  "leg_servo_kp": {names[j]: float(kp) for j, kp in enumerate(servo_stiffness(r)) if j in r.leg_joint_roles()}},
     )
     if png is not None:
         from cocomopl.analysis.plots import plot_robot_posture

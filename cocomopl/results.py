@@ -633,6 +633,10 @@ class RobotCheck(Result):
                      + "..".join(f"{math.degrees(x):g}" for x in r["turn"]) + " deg; single support "
                      f"{d['ocp']['ss_duration']:g} s, ZMP margin {1000 * d['ocp']['zmp_margin']:g} mm; "
                      f"servo torque feedforward {'on' if d['feedforward'] else 'off'} in simulation")
+        g, kp = d["stabilizer"], d["leg_servo_kp"].values()
+        lines.append(f"simulation: leg servos kp {min(kp):.0f}..{max(kp):.0f} N m/rad; stabilizer ankle damping "
+                     f"{g['ankle_damping']:g} N m s/rad, DCM gain {g['dcm_gain']:g}, attitude rate gains "
+                     + "/".join(f"{x:g}" for x in g["attitude_rate_gains"]) + " s (roll/pitch)")
         if self.png:
             lines.append(f"wrote {self.png}")
         return "\n".join(lines)

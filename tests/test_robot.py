@@ -561,6 +561,8 @@ def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_othe
     check = check_robot(str(path))
     assert check.defaults["given"] == sorted(defaults) and check.defaults["ocp"]["ss_duration"] == 0.5
     assert "the description sets footstep_range, ocp, stabilizer, training_lengths, walk" in check.to_table()
+    assert check.defaults["stabilizer"]["dcm_gain"] == 3 and list(check.defaults["stabilizer"]["attitude_rate_gains"]) == [0.02, 0.02]
+    assert "DCM gain 3, attitude rate gains 0.02/0.02 s" in check.to_table()
 
 
 def test_the_servos_torque_feedforward_is_the_robots_default_unless_told(robot, g1):

@@ -125,12 +125,18 @@ TUNED_GAINS = {
 
 
 def gains_for(reference: Motion, robot: Robot) -> StabilizerGains:
-    """The tuned gains for the generator that made ``reference`` (the defaults for any other),
-    for ``robot``: the ankle damping scaled by its torques' ratio to TALOS's, on which they
-    were tuned (:class:`~cocomopl.robot.scale.Scale`), and the attitude rate gains of
+    """The tuned gains for the generator that made ``reference``, for ``robot``
+    (:func:`robot_gains`)."""
+    return robot_gains(robot, reference.producer)
+
+
+def robot_gains(robot: Robot, producer: str = "primitives") -> StabilizerGains:
+    """The gains tuned for the walk generator ``producer`` (the defaults for any other), for
+    ``robot``: the ankle damping scaled by its torques' ratio to TALOS's, on which they were
+    tuned (:class:`~cocomopl.robot.scale.Scale`), and the attitude rate gains of
     :func:`attitude_rate_gains`; each replaced by the description's ``defaults.stabilizer``
     (its ``attitude_rate_gain``, in s, about both axes)."""
-    tuned = TUNED_GAINS.get(reference.producer, StabilizerGains())
+    tuned = TUNED_GAINS.get(producer, StabilizerGains())
     override = dict(robot.override("stabilizer") or {})
     rate = override.pop("attitude_rate_gain", None)
     rates = attitude_rate_gains(robot) if rate is None else (rate, rate)
