@@ -44,6 +44,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import pinocchio as pin
 
 SETTINGS = {"as_written": ({}, False), "as_written_feedforward": ({}, True), "damped": ({"all": 0.02}, False),
             "damped_feedforward": ({"all": 0.02}, True)}
@@ -95,15 +96,9 @@ def setting_of(values: dict, *keys: str) -> float | None:
 
 
 def leg_role_of(robot) -> dict[str, str]:
-    """Joint name -> ``hip``, ``knee`` or ``ankle`` for the legs' joints: the joints above the
-    knee are the hip's, those below it the ankle's."""
-    out = {}
-    for side, roles in robot.leg_roles().items():
-        chain = robot.leg_chain(side)
-        knee = chain.index(roles["knee"])
-        for position, joint in enumerate(chain):
-            out[robot.joint_names[joint]] = "hip" if position < knee else "knee" if position == knee else "ankle"
-    return out
+    """Joint name -> ``hip``, ``knee`` or ``ankle`` for the legs' joints
+    (:meth:`~cocomopl.robot.Robot.leg_joint_roles` without the axis)."""
+    return {robot.joint_names[j]: role.split("_")[0] for j, role in robot.leg_joint_roles().items()}
 
 
 def menagerie_like(robot, path: Path, seed: int) -> Path:
@@ -150,17 +145,10 @@ def _point_feet(spec: mujoco.MjSpec, robot, corners) -> None:
         for geom in colliding:
             spec.delete(geom)
         for k, (x, y) in enumerate(corners):
-            point = np.asarray(sole.pos) + _rotation(sole.quat) @ np.array([x, y, FOOT_POINT_RADIUS_M])
+            point = np.asarray(sole.pos) + pin.Quaternion(*sole.quat).toRotationMatrix() @ np.array([x, y, FOOT_POINT_RADIUS_M])
             body.add_geom(name=f"{side}_foot_point_{k}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[FOOT_POINT_RADIUS_M, 0, 0],
                           pos=point, contype=template.contype, conaffinity=template.conaffinity, condim=template.condim,
                           friction=template.friction, solref=template.solref)
-
-
-def _rotation(quat_wxyz) -> np.ndarray:
-    """The rotation matrix of a (w, x, y, z) quaternion."""
-    out = np.zeros(9)
-    mujoco.mju_quat2Mat(out, np.asarray(quat_wxyz, dtype=float))
-    return out.reshape(3, 3)
 
 
 def main() -> int:

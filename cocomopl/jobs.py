@@ -625,6 +625,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
         check_output(png)
     r = Robot(robot)
     names = r.joint_names
+    kp = servo_stiffness(r)
     straight = r.leg_length
     height = r.q_ref[2] - r.frame_placement(r.q_ref, r.foot_frames["left"]).translation[2]
     result = RobotCheck(
@@ -649,7 +650,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
                   "footstep_range": {key: list(v) for key, v in footstep_range(r).items()},
                   "ocp": settings_for(r).as_dict(), "feedforward": servo_feedforward(SimSettings(), r),
                   "stabilizer": robot_gains(r).as_dict(),
-                  "leg_servo_kp": {names[j]: float(kp) for j, kp in enumerate(servo_stiffness(r)) if j in r.leg_joint_roles()}},
+                  "leg_servo_kp": {names[j]: float(kp[j]) for j in sorted(r.leg_joint_roles())}},
     )
     if png is not None:
         from cocomopl.analysis.plots import plot_robot_posture

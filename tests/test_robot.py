@@ -535,13 +535,12 @@ def test_leg_servos_hold_a_robots_weight_no_more_stiffly_than_taloss(robot, g1):
 
 def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_others(tmp_path, g1):
     import json
-    from types import SimpleNamespace
 
     from cocomopl.dataset.plan import default_lengths
     from cocomopl.gait import footstep_range, m_gen, m_opt
     from cocomopl.jobs import check_robot
     from cocomopl.ocp.settings import robot_settings
-    from cocomopl.sim.stabilizer import gains_for
+    from cocomopl.sim.stabilizer import robot_gains
 
     defaults = {"ocp": {"ss_duration": 0.5, "ss_bounds": [0.4, 0.6], "w_load_transfer": 0},
                 "walk": [0.1, 0.2, 0.1], "training_lengths": [0.2, 0.1, 0.15],
@@ -555,9 +554,8 @@ def test_a_description_overrides_the_scaled_defaults_it_names_and_keeps_the_othe
     assert settings.zmp_margin == scaled.zmp_margin and settings.ds_duration == scaled.ds_duration
     assert m_gen(mybot) == m_opt(mybot) == (0.1, 0.2, 0.1) and default_lengths(mybot) == (0.1, 0.15, 0.2)
     assert footstep_range(mybot) == footstep_range(g1) | {"width": (-0.02, 0.1)}
-    mp = SimpleNamespace(producer="primitives")
-    assert gains_for(mp, mybot).dcm_gain == 3 and gains_for(mp, mybot).ankle_damping == gains_for(mp, g1).ankle_damping
-    assert gains_for(mp, mybot).attitude_rate_gains == (0.02, 0.02) != gains_for(mp, g1).attitude_rate_gains
+    assert robot_gains(mybot).dcm_gain == 3 and robot_gains(mybot).ankle_damping == robot_gains(g1).ankle_damping
+    assert robot_gains(mybot).attitude_rate_gains == (0.02, 0.02) != robot_gains(g1).attitude_rate_gains
     check = check_robot(str(path))
     assert check.defaults["given"] == sorted(defaults) and check.defaults["ocp"]["ss_duration"] == 0.5
     assert "the description sets footstep_range, ocp, stabilizer, training_lengths, walk" in check.to_table()

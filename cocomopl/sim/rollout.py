@@ -35,7 +35,7 @@ from cocomopl.sim.hooks import Hook, Replanner, Step
 from cocomopl.sim.mujoco_model import TIMESTEP, SimModel
 from cocomopl.sim.perturbations import Push
 from cocomopl.sim.servos import CommandChannel, ServoSettings, with_gains
-from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, gains_for
+from cocomopl.sim.stabilizer import Stabilizer, StabilizerGains, robot_gains
 
 RECORD_DT = 0.005  # s between recorded samples
 SETTLE_S = 0.5  # s standing before the motion starts
@@ -182,7 +182,7 @@ def simulate(
     motion : the reference, world frame, starting at rest on the floor
     stabilizer : add the stabilizer's corrections to the commanded joint angles
     gains : the stabilizer's gains; default those tuned for the generator that made
-        ``motion`` (:func:`~cocomopl.sim.stabilizer.gains_for`)
+        ``motion`` (:func:`~cocomopl.sim.stabilizer.robot_gains`)
     feedforward : offset the commands by the plan's torques and the servos' damping of the
         plan's velocity (:class:`Reference`), so that the servos track the plan rather than
         sag and lag
@@ -211,7 +211,7 @@ def simulate(
     sim = with_gains(sim, servos)
     dt = sim.mj.opt.timestep
     reference = Reference(motion, dt, reference_cutoff_hz, servo_gains=sim.servo_gains() if feedforward else None)
-    gains = (gains or gains_for(motion, sim.robot)) if stabilizer else None
+    gains = (gains or robot_gains(sim.robot, motion.producer)) if stabilizer else None
     control = None if gains is None else Stabilizer(sim, motion, gains)
     if replanner is not None:
         replanner.start(control)

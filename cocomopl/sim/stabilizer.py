@@ -124,12 +124,6 @@ TUNED_GAINS = {
 }
 
 
-def gains_for(reference: Motion, robot: Robot) -> StabilizerGains:
-    """The tuned gains for the generator that made ``reference``, for ``robot``
-    (:func:`robot_gains`)."""
-    return robot_gains(robot, reference.producer)
-
-
 def robot_gains(robot: Robot, producer: str = "primitives") -> StabilizerGains:
     """The gains tuned for the walk generator ``producer`` (the defaults for any other), for
     ``robot``: the ankle damping scaled by its torques' ratio to TALOS's, on which they were
