@@ -103,6 +103,7 @@ def leg_role_of(robot) -> dict[str, str]:
 
 def menagerie_like(robot, path: Path, seed: int) -> Path:
     """The project's own model rewritten with the conventions of ``robot``'s Menagerie file."""
+    from cocomopl.motion_file import atomic_path
     from cocomopl.sim.mujoco_model import mjcf
 
     look = LOOK_ALIKES[robot.name]
@@ -130,7 +131,8 @@ def menagerie_like(robot, path: Path, seed: int) -> Path:
         body.fullinertia = look.mass_factor * np.asarray(body.fullinertia)
     if look.foot_points is not None:
         _point_feet(spec, robot, look.foot_points)
-    path.write_text(spec.to_xml())
+    with atomic_path(path, ".xml") as written:  # no half-written model file is left behind
+        written.write_text(spec.to_xml())
     return path
 
 
@@ -163,14 +165,24 @@ def main() -> int:
     from robustness import prepare_walks
 
     from cocomopl.analysis.metrics import summary
+    from cocomopl.errors import Error
+    from cocomopl.motion_file import check_output
     from cocomopl.pipeline import SimSettings, rollout_of
     from cocomopl.robot import Robot
     from cocomopl.sim.servos import ServoSettings
 
+    try:  # a wrong --out is refused before the walks are made
+        if args.out is not None:
+            check_output(args.out)
+    except Error as exc:
+        parser.error(str(exc))
     walks = prepare_walks(args.robot)
     robot = Robot(walks["M_gen"].robot)
     with tempfile.TemporaryDirectory() as folder:
-        path = menagerie_like(robot, Path(args.out or Path(folder) / "menagerie_like.xml"), args.seed)
+        try:
+            path = menagerie_like(robot, Path(args.out or Path(folder) / "menagerie_like.xml"), args.seed)
+        except (Error, OSError) as exc:
+            parser.error(f"cannot write {args.out}: {exc}")
         out = {"robot": robot.name, "seed": args.seed, "model": asdict(LOOK_ALIKES[robot.name]), "walks": {}}
         for name, motion in walks.items():
             for setting, (kv_time, feedforward) in SETTINGS.items():

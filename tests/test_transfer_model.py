@@ -74,3 +74,16 @@ def test_a_setting_is_looked_up_by_name_then_role_then_group_then_all():
     assert setting_of(values, "elbow", "", "arms") == 3.0
     assert setting_of(values, "neck", "", "torso") == 4.0
     assert setting_of({"arms": 3.0}, "neck", "", "torso") is None
+
+
+def test_an_out_that_cannot_be_written_is_refused_before_the_walks(tmp_path):
+    import subprocess
+
+    folder = tmp_path / "a_folder"
+    folder.mkdir()
+    result = subprocess.run([sys.executable, str(Path(__file__).parents[1] / "benchmarks" / "transfer.py"),
+                             "--robot", "g1", "--out", str(folder)], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2 and result.stdout == ""
+    assert "Traceback" not in result.stderr
+    assert result.stderr.strip().splitlines()[-1].startswith(f"transfer.py: error: {folder} is a directory")
+    assert list(folder.iterdir()) == []
