@@ -613,6 +613,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
     description file): joint groups, mirror pairs, soles, posture and the symmetrisation;
     with ``png``, a picture of the posture and its soles."""
 
+    from cocomopl.baselines.kajita import KajitaSettings
     from cocomopl.dataset.plan import default_lengths
     from cocomopl.gait import footstep_range, m_gen
     from cocomopl.ocp.settings import settings_for
@@ -649,7 +650,7 @@ def check_robot(robot: str, png: str | Path | None = None) -> RobotCheck:
                   "training_lengths_m": list(default_lengths(r)),
                   "footstep_range": {key: list(v) for key, v in footstep_range(r).items()},
                   "ocp": settings_for(r).as_dict(), "feedforward": servo_feedforward(SimSettings(), r),
-                  "stabilizer": robot_gains(r).as_dict(),
+                  "stabilizer": robot_gains(r).as_dict(), "kajita": asdict(KajitaSettings().scaled_to(r)),
                   "leg_servo_kp": {names[j]: float(kp[j]) for j in sorted(r.leg_joint_roles())}},
     )
     if png is not None:

@@ -550,7 +550,8 @@ def reproduce_report(
 
 def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
     """The Kajita baseline on a generated walk's footsteps and phase timing: the
-    ``variant`` of :data:`~cocomopl.baselines.kajita.VARIANTS`, the two-stage one with the
+    ``variant`` of :data:`~cocomopl.baselines.kajita.VARIANTS` scaled to the walk's robot
+    (:meth:`~cocomopl.baselines.kajita.KajitaSettings.scaled_to`), the two-stage one with the
     generated walk's mean swing height."""
     import dataclasses
 
@@ -561,7 +562,7 @@ def kajita_for(walk: GeneratedWalk, variant: str = "two-stage") -> Motion:
 
     if variant not in VARIANTS:
         raise Error(f"unknown Kajita variant {variant!r}: choose from {', '.join(VARIANTS)}")
-    settings = VARIANTS[variant]
+    settings = VARIANTS[variant].scaled_to(walk.robot)
     if variant == "two-stage":
         settings = dataclasses.replace(settings, swing_height=float(np.mean(swing_heights(walk.robot, walk.motion))))
     durations = [np.diff(s.phase_edges) for s in walk.steps]

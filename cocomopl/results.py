@@ -637,6 +637,11 @@ class RobotCheck(Result):
         lines.append(f"simulation: leg servos kp {min(kp):.0f}..{max(kp):.0f} N m/rad; stabilizer ankle damping "
                      f"{g['ankle_damping']:g} N m s/rad, DCM gain {g['dcm_gain']:g}, attitude rate gains "
                      + "/".join(f"{x:g}" for x in g["attitude_rate_gains"]) + " s (roll/pitch)")
+        kj = d["kajita"]
+        lines.append(f"Kajita baseline: preview {kj['preview_time']:.3g} s, jerk weight {kj['weight_input']:.3g}, "
+                     f"prelude {kj['prelude']:.3g} s, postlude {kj['postlude']:.3g} s, ZMP smoothing "
+                     f"{1000 * kj['zmp_smoothing']:.3g} ms, pelvis drop searched over "
+                     f"{_mm(kj['drop_search_range'], '..')} mm")
         if self.png:
             lines.append(f"wrote {self.png}")
         return "\n".join(lines)

@@ -1,5 +1,9 @@
 """The Kajita baseline: ZMP preview control of the cart-table, and the whole-body walk built on it."""
 
+import json
+import math
+import re
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -7,7 +11,6 @@ import pytest
 from cocomopl.analysis.feasibility import check_motion
 from cocomopl.analysis.metrics import posture_statistics, swing_heights
 from cocomopl.baselines.kajita import (
-    DROP_SEARCH_RANGE,
     DROP_SEARCH_RESOLUTION,
     LEGACY,
     KajitaSettings,
@@ -210,7 +213,8 @@ def test_the_second_stage_brings_the_multibody_zmp_onto_the_reference(robot, wal
 def test_the_searched_com_height_is_the_highest_the_legs_reach(robot, walk):
     assert walk.meta["pelvis_drop_searched"]
     drop = walk.meta["pelvis_drop"]
-    assert DROP_SEARCH_RANGE[0] + DROP_SEARCH_RESOLUTION < drop < DROP_SEARCH_RANGE[1]
+    low, high = KajitaSettings().drop_search_range
+    assert low + DROP_SEARCH_RESOLUTION < drop < high
     assert walk.meta["sole_error_m"] < 1e-3  # reached, at that height
     with pytest.raises(Error, match="out of the legs' reach"):
         kajita_walk(robot, SPECS, dt=0.025, settings=KajitaSettings(pelvis_drop=drop - 2 * DROP_SEARCH_RESOLUTION))
@@ -262,3 +266,70 @@ def test_a_turning_side_stepping_walk_puts_its_soles_and_zmp_on_the_turned_foots
             centre = phase.start[j][:2] + ahead * np.array([math.cos(yaw), math.sin(yaw)])
             zmp = zmp_reference(robot, phases, np.linspace(edges[p], edges[p + 1], 3))
             np.testing.assert_allclose(zmp, np.tile(centre, (3, 1)), atol=1e-9)
+
+
+def test_taloss_kajita_settings_are_its_own_and_g1s_are_scaled_to_it(robot):
+    """TALOS's scale is exactly 1, so its settings are jrl-walkgen's unchanged; G1's heights
+    scale with its leg length and its durations with the cart-table's time, sqrt(length)."""
+    assert KajitaSettings().scaled_to(robot) == KajitaSettings()
+    assert LEGACY.scaled_to(robot) == LEGACY
+    g1 = Robot("g1")
+    length, time = g1.scale.length, math.sqrt(g1.scale.length)
+    base, scaled = KajitaSettings(), KajitaSettings().scaled_to(g1)
+    for name in ("preview_time", "prelude", "postlude", "zmp_smoothing"):
+        assert getattr(scaled, name) == pytest.approx(getattr(base, name) * time)
+    assert scaled.swing_height == pytest.approx(base.swing_height * length)
+    assert scaled.drop_search_range == pytest.approx([v * length for v in base.drop_search_range])
+    assert LEGACY.scaled_to(g1).pelvis_drop == pytest.approx(LEGACY.pelvis_drop * length)
+    assert (scaled.weight_error, scaled.weight_input, scaled.control_dt) == (base.weight_error, base.weight_input, base.control_dt)
+
+
+def test_the_scaled_preview_servo_answers_in_the_robots_time_as_taloss_does(robot):
+    """A ZMP reference stepping by one length unit: G1's CoM, with its scaled settings and its
+    CoM height, follows in G1's time and size as TALOS's does in TALOS's, to 1 % of the step
+    (what is left is the controller's fixed 5 ms period: the same with the weights scaled
+    so that the ZMP error and the jerk weigh as on TALOS)."""
+    g1 = Robot("g1")
+
+    def answer(r: Robot, height: float) -> tuple[np.ndarray, np.ndarray]:
+        s, length, time = KajitaSettings().scaled_to(r), r.scale.length, math.sqrt(r.scale.length)
+        controller = PreviewController(s.control_dt, height * length, preview_time=s.preview_time,
+                                       weight_error=s.weight_error, weight_input=s.weight_input)
+        grid = np.arange(0.0, 6.0 * time, s.control_dt)
+        reference = np.where(grid > 2.0 * time, length, 0.0)
+        return grid / time, controller.track(np.column_stack([reference, reference]))[0][:, 0] / length
+
+    talos_time, talos_com = answer(robot, HEIGHT)
+    g1_time, g1_com = answer(g1, HEIGHT)
+    assert np.abs(np.interp(talos_time, g1_time, g1_com) - talos_com).max() < 0.01
+    # the preview moves the CoM before the reference steps, and it arrives
+    assert 0.0 < talos_com[talos_time < 2.0].max() < 0.5 and talos_com[-1] == pytest.approx(1.0, abs=1e-2)
+
+
+def _described(tmp_path, kajita) -> Robot:
+    path = tmp_path / "g1k.json"
+    path.write_text(json.dumps({"name": "g1k", "example_robot_data": "g1", "pelvis": "pelvis",
+                                "defaults": {"kajita": kajita}}))
+    return Robot(str(path))
+
+
+def test_a_description_sets_kajita_settings_in_place_of_the_scaled_ones(tmp_path):
+    r = _described(tmp_path, {"preview_time": 2.0, "drop_search_range": [-0.02, 0.05], "pelvis_drop": None})
+    s = KajitaSettings().scaled_to(r)
+    assert s.preview_time == 2.0 and s.drop_search_range == (-0.02, 0.05) and s.pelvis_drop is None
+    assert s.prelude == pytest.approx(KajitaSettings().prelude * math.sqrt(r.scale.length))  # not given: scaled
+
+
+@pytest.mark.parametrize(("kajita", "words"), [
+    ({"preview": 1.0}, "defaults.kajita.preview is not a Kajita setting"),
+    ({"preview_time": 0}, "defaults.kajita.preview_time must be a positive number (SI units), not 0"),
+    ({"prelude": -1.0}, "defaults.kajita.prelude must be a number of seconds, at least 0"),
+    ({"ik_iterations": 2.5}, "defaults.kajita.ik_iterations must be a positive whole number"),
+    ({"second_stage": "yes"}, "defaults.kajita.second_stage must be true or false"),
+    ({"drop_search_range": [0.1, 0.0]}, "defaults.kajita.drop_search_range must be [low, high] in m, low < high"),
+])
+def test_a_kajita_setting_a_description_cannot_set_is_one_line_naming_it(tmp_path, kajita, words):
+    r = _described(tmp_path, kajita)
+    with pytest.raises(Error, match=re.escape(words)) as info:
+        KajitaSettings().scaled_to(r)
+    assert "\n" not in str(info.value)

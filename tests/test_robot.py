@@ -463,6 +463,7 @@ def test_a_robot_facing_backwards_in_its_base_frame_is_refused_and_zero_link_ine
     ({"defaults": []}, "defaults must be a JSON object"),
     ({"defaults": {"speed": 1}}, "defaults has no key 'speed'"),
     ({"defaults": {"ocp": [0.5]}}, "defaults.ocp must be a JSON object of OCP settings"),
+    ({"defaults": {"kajita": 1.6}}, "defaults.kajita must be a JSON object of Kajita baseline settings"),
     ({"defaults": {"walk": [0.1, -0.1]}}, "defaults.walk must be a list of positive step lengths in m"),
     ({"defaults": {"training_lengths": []}}, "defaults.training_lengths must be a list of positive step lengths"),
     ({"defaults": {"footstep_range": {"length": [0.3, 0.1]}}}, "defaults.footstep_range.length must be [low, high]"),

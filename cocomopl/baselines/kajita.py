@@ -38,14 +38,12 @@ from cocomopl.gait import footsteps, ground_position, ground_yaw, mean_yaw, phas
 from cocomopl.kinematics import flat_placement, leg_joints, place_legs
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
+from cocomopl.robot.description import finite_number, positive_number
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, multibody_zmp, rms_zmp_error
 
 STANDING_ITERATIONS = 10  # pelvis shifts to bring the CoM of the first posture above its target
 REACH_TOLERANCE = 1e-3  # m: a sole farther than this from its target is out of the legs' reach
-# m: the pelvis drops the height search brackets (below the reference posture; negative is
-# above it, where TALOS's knees straighten) and the resolution it stops at
-DROP_SEARCH_RANGE = (-0.06, 0.12)
-DROP_SEARCH_RESOLUTION = 1e-3
+DROP_SEARCH_RESOLUTION = 1e-3  # m: where the pelvis height search stops
 
 
 @dataclass(frozen=True)
@@ -75,6 +73,8 @@ class KajitaSettings:
         50 ms "from Kajita's San Matlab files"); 0: the piecewise-linear reference as it is
     second_stage : correct the whole body's multibody ZMP onto the reference (the dynamics
         filter); False leaves the cart-table's error in the plan
+    drop_search_range : the pelvis drops (m, below the reference posture; negative is above
+        it, where TALOS's knees straighten) the height search brackets
     """
 
     swing_height: float = 0.08
@@ -88,6 +88,61 @@ class KajitaSettings:
     pelvis_drop: float | None = None
     zmp_smoothing: float = 0.05
     second_stage: bool = True
+    drop_search_range: tuple[float, float] = (-0.06, 0.12)
+
+    def scaled_to(self, robot: Robot) -> KajitaSettings:
+        """These settings (TALOS's) scaled to ``robot``'s size, then the description's
+        ``defaults.kajita`` in place of any (docs/robots.md#settings-scaled-to-the-robot).
+
+        Heights scale with the leg length and durations with its square root, the cart-table's
+        time (``sqrt(z_c / g)``), so that the preview servo answers a ZMP reference in the
+        robot's time and size as it answers TALOS's.  The preview weights are kept: they
+        change that answer by less than the controller's fixed 5 ms period does.  TALOS's
+        scale is exactly 1.
+
+        Raises
+        ------
+        Error
+            If ``defaults.kajita`` names a field that is not a setting or gives it a value of
+            the wrong kind.
+        """
+        length, time = robot.scale.length, robot.scale.time
+        scaled = replace(
+            self,
+            swing_height=self.swing_height * length,
+            preview_time=self.preview_time * time,
+            prelude=self.prelude * time,
+            postlude=self.postlude * time,
+            zmp_smoothing=self.zmp_smoothing * time,
+            pelvis_drop=None if self.pelvis_drop is None else self.pelvis_drop * length,
+            drop_search_range=(self.drop_search_range[0] * length, self.drop_search_range[1] * length),
+        )
+        return replace(scaled, **_kajita_override(robot))
+
+
+def _kajita_override(robot: Robot) -> dict:
+    """The description's ``defaults.kajita``, each value checked against its field."""
+    given = robot.override("kajita") or {}
+    for name, value in given.items():
+        if name not in _OVERRIDE_CHECKS:
+            raise Error(f"robot description: defaults.kajita.{name} is not a Kajita setting (a field of KajitaSettings)")
+        accepts, wants = _OVERRIDE_CHECKS[name]
+        if not accepts(value):
+            raise Error(f"robot description: defaults.kajita.{name} must be {wants}, not {value!r}")
+    return {name: tuple(value) if name == "drop_search_range" else value for name, value in given.items()}
+
+
+# per field of KajitaSettings: what a description may give it, and how to say so
+_OVERRIDE_CHECKS = {
+    **dict.fromkeys(("swing_height", "preview_time", "weight_error", "weight_input", "control_dt", "zmp_smoothing"),
+                    (positive_number, "a positive number (SI units)")),
+    **dict.fromkeys(("prelude", "postlude"), (lambda v: finite_number(v) and v >= 0, "a number of seconds, at least 0")),
+    "ik_iterations": (lambda v: isinstance(v, int) and not isinstance(v, bool) and v > 0, "a positive whole number"),
+    "pelvis_drop": (lambda v: v is None or finite_number(v), "a number in m, or null to search for it"),
+    "second_stage": (lambda v: isinstance(v, bool), "true or false"),
+    "drop_search_range": (lambda v: isinstance(v, list) and len(v) == 2 and all(map(finite_number, v)) and v[0] < v[1],
+                          "[low, high] in m, low < high"),
+}
 
 
 # The single-stage baseline (`reproduce --kajita legacy`): a fixed 4 cm crouch, the raw
@@ -443,7 +498,7 @@ def highest_pelvis_drop(
     settle: float,
 ) -> tuple[float, tuple | None]:
     """The least pelvis drop (m), so the highest constant CoM, at which stage 1 realises the
-    walk (:func:`_out_of_reach`): bisection over ``DROP_SEARCH_RANGE`` down to
+    walk (:func:`_out_of_reach`): bisection over ``settings.drop_search_range`` down to
     ``DROP_SEARCH_RESOLUTION``, about eight first stages.  Returns the drop and
     :func:`_first_stage`'s result there (None if untried).
 
@@ -451,7 +506,7 @@ def highest_pelvis_drop(
     reach: feasibility is monotonic in the drop.  The lowest pelvis of the range is returned
     untried if nothing above it works; the walk then fails its own reach check.
     """
-    high, low = DROP_SEARCH_RANGE
+    high, low = settings.drop_search_range
     found = None
     while low - high > DROP_SEARCH_RESOLUTION:
         middle = 0.5 * (low + high)

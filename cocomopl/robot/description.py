@@ -99,12 +99,12 @@ def _checked(desc, where: str) -> dict:
         raise Error(f"robot description {where}: 'feet' must name the frames of the soles, "
                     '{"left": FRAME, "right": FRAME}')
     if "sole" in desc and not (isinstance(desc["sole"], dict) and set(desc["sole"]) == {"front", "back", "half_width"}
-                               and all(_positive(v) for v in desc["sole"].values())):
+                               and all(positive_number(v) for v in desc["sole"].values())):
         raise Error(f"robot description {where}: 'sole' must give positive 'front', 'back' and 'half_width' in m")
     for key in ("pelvis_height", "max_step_length", "foot_separation"):
-        if key in desc and not _positive(desc[key]):
+        if key in desc and not positive_number(desc[key]):
             raise Error(f"robot description {where}: {key!r} must be a positive number of metres, not {desc[key]!r}")
-    if "armature" in desc and not _positive(desc["armature"]):
+    if "armature" in desc and not positive_number(desc["armature"]):
         raise Error(f"robot description {where}: 'armature' must be a positive number of kg m^2, not {desc['armature']!r}")
     if not isinstance(desc.get("symmetrize", True), bool):
         raise Error(f"robot description {where}: 'symmetrize' must be true or false, not {desc['symmetrize']!r}")
@@ -115,7 +115,7 @@ def _checked(desc, where: str) -> dict:
 
 # What a description's "defaults" may set in place of the values scaled from TALOS's
 # (docs/robots.md#overriding-the-scaled-defaults); lengths in m, angles in rad.
-DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer", "simulation")
+DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer", "simulation", "kajita")
 STABILIZER_KEYS = ("ankle_damping", "dcm_gain", "attitude_rate_gain")
 SIMULATION_KEYS = ("feedforward",)
 FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
@@ -123,8 +123,9 @@ FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
 
 def _check_defaults(defaults, where: str) -> None:
     """An :class:`Error` naming the first entry of a description's ``defaults`` that is not
-    what docs/robots.md says (the OCP settings' names and values are checked where they are
-    applied, :func:`cocomopl.ocp.settings.robot_settings`)."""
+    what docs/robots.md says (the OCP and Kajita settings' names and values are checked where
+    they are applied, :func:`cocomopl.ocp.settings.robot_settings` and
+    :meth:`cocomopl.baselines.kajita.KajitaSettings.scaled_to`; ``robot check`` applies both)."""
 
     def fail(key: str, wants: str, value) -> Error:
         return Error(f"robot description {where}: defaults.{key} must be {wants}, not {value!r}")
@@ -136,18 +137,20 @@ def _check_defaults(defaults, where: str) -> None:
             raise Error(f"robot description {where}: defaults has no key {key!r} (it takes {', '.join(DEFAULTS_KEYS)})")
     if not isinstance(defaults.get("ocp", {}), dict):
         raise fail("ocp", "a JSON object of OCP settings", defaults["ocp"])
+    if not isinstance(defaults.get("kajita", {}), dict):
+        raise fail("kajita", "a JSON object of Kajita baseline settings", defaults["kajita"])
     for key in ("training_lengths", "walk"):
         value = defaults.get(key, [0.1])
-        if not (isinstance(value, list) and value and all(map(_positive, value))):
+        if not (isinstance(value, list) and value and all(map(positive_number, value))):
             raise fail(key, "a list of positive step lengths in m", value)
     ranges = defaults.get("footstep_range", {})
     if not isinstance(ranges, dict) or set(ranges) - set(FOOTSTEP_RANGE_KEYS):
         raise fail("footstep_range", f"an object of {', '.join(FOOTSTEP_RANGE_KEYS)}", ranges)
     for key, value in ranges.items():
-        if not (isinstance(value, list) and len(value) == 2 and all(_finite(v) for v in value) and value[0] < value[1]):
+        if not (isinstance(value, list) and len(value) == 2 and all(finite_number(v) for v in value) and value[0] < value[1]):
             raise fail(f"footstep_range.{key}", "[low, high], low < high" + (" (rad)" if key == "turn" else " (m)"), value)
     gains = defaults.get("stabilizer", {})
-    if not isinstance(gains, dict) or set(gains) - set(STABILIZER_KEYS) or not all(map(_positive, gains.values())):
+    if not isinstance(gains, dict) or set(gains) - set(STABILIZER_KEYS) or not all(map(positive_number, gains.values())):
         raise fail("stabilizer", f"an object of positive {', '.join(STABILIZER_KEYS)}", gains)
     simulation = defaults.get("simulation", {})
     if not isinstance(simulation, dict) or set(simulation) - set(SIMULATION_KEYS) or not all(
@@ -155,7 +158,8 @@ def _check_defaults(defaults, where: str) -> None:
         raise fail("simulation", f"an object of {', '.join(SIMULATION_KEYS)}: true or false", simulation)
 
 
-def _finite(value) -> bool:
+def finite_number(value) -> bool:
+    """Whether a JSON value is a finite number (not a boolean)."""
     return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
 
 
@@ -169,8 +173,9 @@ def link_inertia(mass: float, lever: np.ndarray, rotational: np.ndarray) -> pin.
         return pin.Inertia(mass, lever, vectors @ np.diag(np.clip(values, 0.0, None)) @ vectors.T)
 
 
-def _positive(value) -> bool:
-    return _finite(value) and value > 0
+def positive_number(value) -> bool:
+    """Whether a JSON value is a finite number above 0."""
+    return finite_number(value) and value > 0
 
 
 def load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
