@@ -25,7 +25,10 @@ It walks M_gen, M_opt and the Kajita baseline of ``cocomopl reproduce --robot RO
 * ``as_written``: the file's servos as they are;
 * ``as_written_feedforward``: those and torque feedforward (``--feedforward``);
 * ``damped``: kv = kp / 50 (``--kv-time-s 0.02``);
-* ``damped_feedforward``: that and torque feedforward (``--feedforward``).
+* ``damped_feedforward``: that and torque feedforward (``--feedforward``);
+* ``project_servos_feedforward``: the look-alike with the project's own servos in place of the
+  file's (:func:`~cocomopl.sim.mujoco_model.servo_stiffness`, kv = kp / 50) and torque
+  feedforward: what the file's servos alone change.
 
 It reports per walk and setting whether the robot fell, the peak vertical force over weight
 and the mean torque; the contacts are 10 ms (``--contact-time-constant-s 0.01``).
@@ -46,8 +49,11 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
-SETTINGS = {"as_written": ({}, False), "as_written_feedforward": ({}, True), "damped": ({"all": 0.02}, False),
-            "damped_feedforward": ({"all": 0.02}, True)}
+# per servo setting: kv time (s) by joint key, torque feedforward, and the file's servos (False:
+# the project's own)
+SETTINGS = {"as_written": ({}, False, True), "as_written_feedforward": ({}, True, True),
+            "damped": ({"all": 0.02}, False, True), "damped_feedforward": ({"all": 0.02}, True, True),
+            "project_servos_feedforward": ({}, True, False)}
 
 
 @dataclass(frozen=True)
@@ -101,8 +107,9 @@ def leg_role_of(robot) -> dict[str, str]:
     return {robot.joint_names[j]: role.split("_")[0] for j, role in robot.leg_joint_roles().items()}
 
 
-def menagerie_like(robot, path: Path, seed: int) -> Path:
-    """The project's own model rewritten with the conventions of ``robot``'s Menagerie file."""
+def menagerie_like(robot, path: Path, seed: int, *, servos: bool = True) -> Path:
+    """The project's own model rewritten with the conventions of ``robot``'s Menagerie file;
+    without ``servos``, all but its servos (the project's are kept)."""
     from cocomopl.motion_file import atomic_path
     from cocomopl.sim.mujoco_model import mjcf
 
@@ -115,7 +122,7 @@ def menagerie_like(robot, path: Path, seed: int) -> Path:
     def keys(name: str) -> tuple[str, ...]:
         return (name, roles.get(name, ""), groups.get(name, ""))
 
-    for actuator in spec.actuators:
+    for actuator in spec.actuators if servos else ():
         kp, kv = setting_of(look.kp, *keys(actuator.target)), setting_of(look.kv, *keys(actuator.target))
         actuator.gainprm[0], actuator.biasprm[1], actuator.biasprm[2] = kp, -kp, -kv
     for joint in spec.joints:
@@ -183,10 +190,11 @@ def main() -> int:
             path = menagerie_like(robot, Path(args.out or Path(folder) / "menagerie_like.xml"), args.seed)
         except (Error, OSError) as exc:
             parser.error(f"cannot write {args.out}: {exc}")
+        files = {True: path, False: menagerie_like(robot, Path(folder) / "project_servos.xml", args.seed, servos=False)}
         out = {"robot": robot.name, "seed": args.seed, "model": asdict(LOOK_ALIKES[robot.name]), "walks": {}}
         for name, motion in walks.items():
-            for setting, (kv_time, feedforward) in SETTINGS.items():
-                settings = SimSettings(contact_time_constant=0.01, feedforward=feedforward, sim_model=path,
+            for setting, (kv_time, feedforward, file_servos) in SETTINGS.items():
+                settings = SimSettings(contact_time_constant=0.01, feedforward=feedforward, sim_model=files[file_servos],
                                        servos=ServoSettings(kv_time_s=kv_time))
                 rollout = rollout_of(robot, motion, settings)
                 figures = summary(robot, rollout.measured, motion)

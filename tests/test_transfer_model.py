@@ -87,3 +87,13 @@ def test_an_out_that_cannot_be_written_is_refused_before_the_walks(tmp_path):
     assert "Traceback" not in result.stderr
     assert result.stderr.strip().splitlines()[-1].startswith(f"transfer.py: error: {folder} is a directory")
     assert list(folder.iterdir()) == []
+
+
+def test_without_the_files_servos_the_look_alike_keeps_the_projects_and_the_rest_of_menageries(g1, tmp_path):
+    own = build_sim_model(g1, visuals=False)
+    sim = load_sim_model(g1, menagerie_like(g1, tmp_path / "g1_own_servos.xml", seed=0, servos=False), 0.01)
+    kp, kv = sim.servo_gains()
+    own_kp, own_kv = own.servo_gains()
+    assert np.array_equal(kp, own_kp) and np.array_equal(kv, own_kv)
+    assert np.allclose(sim.mj.dof_damping[sim.dof_index], 0.5)
+    assert len(sim.sole_geoms["left"]) == len(LOOK_ALIKES["g1"].foot_points)
