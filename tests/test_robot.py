@@ -618,3 +618,18 @@ def test_files_record_the_robots_fingerprint_and_another_models_files_are_refuse
     model.metadata_["robot_model"] = "0" * 16
     with pytest.raises(Error, match="the model was made for another model of talos"):
         model_robot(model)
+
+
+def test_the_descriptions_stabilizer_and_simulation_keys_are_the_settings_they_set():
+    """The robot layer checks ``defaults.stabilizer`` and ``defaults.simulation`` when a
+    description is read, without importing the simulation: its key lists must stay the
+    settings' own fields (the attitude rate gain given once for roll and pitch)."""
+    from dataclasses import fields
+
+    from cocomopl.pipeline import SimSettings
+    from cocomopl.robot.description import SIMULATION_KEYS, STABILIZER_KEYS
+    from cocomopl.sim.stabilizer import StabilizerGains
+
+    gains = [f.name for f in fields(StabilizerGains)]
+    assert [key if key != "attitude_rate_gain" else "attitude_rate_gains" for key in STABILIZER_KEYS] == gains
+    assert set(SIMULATION_KEYS) <= {f.name for f in fields(SimSettings)}

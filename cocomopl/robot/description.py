@@ -116,6 +116,9 @@ def _checked(desc, where: str) -> dict:
 # What a description's "defaults" may set in place of the values scaled from TALOS's
 # (docs/robots.md#overriding-the-scaled-defaults); lengths in m, angles in rad.
 DEFAULTS_KEYS = ("ocp", "training_lengths", "walk", "footstep_range", "stabilizer", "simulation", "kajita")
+# the fields of sim.stabilizer.StabilizerGains and pipeline.SimSettings a description sets,
+# checked here so that a description is refused when it is read (tests/test_robot.py holds
+# them to the settings' fields; the robot layer does not import the simulation)
 STABILIZER_KEYS = ("ankle_damping", "dcm_gain", "attitude_rate_gain")
 SIMULATION_KEYS = ("feedforward",)
 FOOTSTEP_RANGE_KEYS = ("length", "width", "turn")
