@@ -110,11 +110,16 @@ class SimSettings:
 
 def servo_feedforward(settings: SimSettings, robot: Robot) -> bool:
     """Whether the servos get the plan's torque feedforward: as ``settings`` say, else as the
-    robot's description does (``defaults.simulation.feedforward``, docs/robots.md; G1's
-    motors take a feed-forward torque beside their position target), else not."""
+    robot's description does (``defaults.simulation.feedforward``, docs/robots.md), else on
+    for a robot whose leg servos are softer than full torque at 30 mrad
+    (:func:`~cocomopl.sim.mujoco_model.leg_servos_capped`; G1, Alexander): such servos sag
+    under the plan's loads further than TALOS's, and the feedforward supplies the loads."""
+    from cocomopl.sim.mujoco_model import leg_servos_capped
+
     if settings.feedforward is not None:
         return settings.feedforward
-    return bool((robot.override("simulation") or {}).get("feedforward", False))
+    given = (robot.override("simulation") or {}).get("feedforward")
+    return leg_servos_capped(robot) if given is None else bool(given)
 
 
 def recovery_for(walk: GeneratedWalk, dt: float = PLAN_DT):

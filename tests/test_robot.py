@@ -633,3 +633,24 @@ def test_the_descriptions_stabilizer_and_simulation_keys_are_the_settings_they_s
     gains = [f.name for f in fields(StabilizerGains)]
     assert [key if key != "attitude_rate_gain" else "attitude_rate_gains" for key in STABILIZER_KEYS] == gains
     assert set(SIMULATION_KEYS) <= {f.name for f in fields(SimSettings)}
+
+
+def test_a_robot_whose_leg_servos_are_capped_gets_the_feedforward_unless_its_description_says(tmp_path, robot):
+    """G1's leg servos are held below full torque at 30 mrad (softer than TALOS's for its
+    weight and size), so a G1 description that says nothing turns the feedforward on; one that
+    says false keeps it off; TALOS's servos are not capped."""
+    import json
+
+    from cocomopl.pipeline import SimSettings, servo_feedforward
+    from cocomopl.sim.mujoco_model import leg_servos_capped
+
+    def described(name: str, **defaults) -> Robot:
+        path = tmp_path / f"{name}.json"
+        path.write_text(json.dumps({"name": name, "example_robot_data": "g1", "pelvis": "pelvis", "defaults": defaults}))
+        return Robot(str(path))
+
+    silent, off = described("g1_silent"), described("g1_off", simulation={"feedforward": False})
+    assert leg_servos_capped(silent) and not leg_servos_capped(robot)
+    assert servo_feedforward(SimSettings(), silent) is True
+    assert servo_feedforward(SimSettings(), off) is False
+    assert servo_feedforward(SimSettings(feedforward=False), silent) is False

@@ -242,6 +242,14 @@ def servo_stiffness(robot: Robot) -> np.ndarray:
     return kp
 
 
+def leg_servos_capped(robot: Robot) -> bool:
+    """Whether :func:`servo_stiffness` holds any of ``robot``'s leg servos below full torque at
+    :data:`FULL_TORQUE_ERROR`: they then give more under the robot's own loads than TALOS's
+    give under TALOS's.  Not for TALOS or Romeo; for G1 and Alexander."""
+    legs = sorted(robot.leg_joint_roles())
+    return bool(np.any(servo_stiffness(robot)[legs] < robot.tau_max[legs] / FULL_TORQUE_ERROR))
+
+
 def _servos(robot: Robot):
     """Per actuated joint, the project's position servo: name, kp, kv, torque limit, command range."""
     for name, kp, tau, lower, upper in zip(robot.joint_names, servo_stiffness(robot), robot.tau_max, robot.q_lower, robot.q_upper):
