@@ -47,8 +47,7 @@ def main() -> int:
 
     from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
     from cocomopl.gait import M_GEN, sequence_specs
-    from cocomopl.primitives.model_file import load_model
-    from cocomopl.robot import Robot
+    from cocomopl.primitives.model_file import load_model, model_robot
     from cocomopl.synthesis.step_chain import generate_steps
     from cocomopl.synthesis.world import place_steps
 
@@ -64,7 +63,7 @@ def main() -> int:
     chain = generate_steps(model, specs)
     step_s = median_time(lambda: model.predict(specs[4], start=chain[3].values[-1]), 2000)
     sequence_s = median_time(lambda: generate_steps(model, specs), 300)
-    robot = Robot(model.metadata_.get("robot", "talos"))
+    robot = model_robot(model)
     placement_s = median_time(lambda: place_steps(robot, chain, dt=0.025), 3)
     print("solving one OC step ...", file=sys.stderr)
     oc_s = cocomopl_cyclic(0.25)["solve_time_s"]

@@ -38,9 +38,8 @@ from primitive_peers import PCAPeer
 from cocomopl.errors import Error
 from cocomopl.motion import STEP_KINDS
 from cocomopl.primitives.family import GROUPS, signal_group_indices
-from cocomopl.primitives.model_file import load_model
+from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.primitives.training import load_training_steps
-from cocomopl.robot import Robot
 
 ANGLE_GROUPS = ("legs", "torso", "arms", "pelvis")  # rad; the ZMP is in m
 # the floors a step is counted against: (key, groups, limit in rad or m)
@@ -87,7 +86,7 @@ def summary(rows: list[dict], prefixes: list[str]) -> dict:
 def accuracy(model_path: str, held_out_path: str, dataset_path: str | None = None) -> dict:
     model = load_model(model_path).prepare()
     steps = load_training_steps(held_out_path)
-    robot = Robot(model.metadata_.get("robot", "talos"))
+    robot = model_robot(model)
     groups = signal_group_indices(robot, model.signal_names)
     errors = {"": squared_errors(model, steps, groups)}
     if dataset_path is not None:

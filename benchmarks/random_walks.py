@@ -68,7 +68,7 @@ from cocomopl.errors import Error
 from cocomopl.motion import Footstep
 from cocomopl.pipeline import FILTER_WARNING_M
 from cocomopl.planning.footsteps import MAX_LANDINGS, footstep_specs, landings_of, write_landings
-from cocomopl.primitives.model_file import METADATA_KEY, load_model
+from cocomopl.primitives.model_file import METADATA_KEY, load_model, model_robot
 from cocomopl.requests import FIRST_SWINGS
 from cocomopl.robot import DEFAULT_ROBOT, Robot
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant
@@ -187,14 +187,16 @@ def random_goal(rng: np.random.Generator) -> list[float]:
             float(np.round(rng.uniform(-90, 90), 1))]
 
 
-def model_robot(path: str) -> str:
-    """The robot a model file is for, from its metadata alone: the arrays' checks take
-    seconds, and the run itself makes them (:func:`~cocomopl.primitives.model_file.load_model`)."""
+def metadata_robot(path: str) -> Robot:
+    """The robot a model file is for, from its metadata alone: its recorded description (a
+    robot that is not bundled), else its bundled name; the arrays' checks take seconds, and
+    the run itself makes them (:func:`~cocomopl.primitives.model_file.load_model`)."""
     try:
         with np.load(path, allow_pickle=False) as data:
-            return json.loads(data[METADATA_KEY].item()).get("robot", DEFAULT_ROBOT)
+            meta = json.loads(data[METADATA_KEY].item())
     except (OSError, KeyError, ValueError, AttributeError) as exc:
         raise Error(f"{path}: not a readable cocomopl model file ({exc.__class__.__name__})") from None
+    return Robot(meta.get("robot_description") or meta.get("robot", DEFAULT_ROBOT))
 
 
 def label(result: dict) -> str:
@@ -321,7 +323,7 @@ def main() -> int:
         check_contact_time_constant(args.contact_time_constant_s)
         check_reference_cutoff(args.reference_cutoff_hz)
         # a missing or broken file fails here, not once per worker; a dry run reads only the robot
-        robot_name = model_robot(args.model) if args.dry_run else load_model(args.model).metadata_.get("robot", DEFAULT_ROBOT)
+        robot = metadata_robot(args.model) if args.dry_run else model_robot(load_model(args.model))
         if args.footsteps and args.footstep_dir is not None:
             args.footstep_dir.mkdir(parents=True, exist_ok=True)
     except (Error, OSError) as exc:
@@ -331,13 +333,12 @@ def main() -> int:
         if args.goals:
             sequences = [{"goal": random_goal(rng)} for _ in range(args.n)]
         elif args.footsteps:
-            robot = Robot(robot_name)
             # the walks are generated from their files; a dry run writes only those it is asked to keep
             folder = args.footstep_dir or (None if args.dry_run else Path(scratch))
             sequences = [random_footstep_walk(robot, args.steps, seed=args.seed, walk=k, folder=folder)
                          for k in range(args.n)]
         else:
-            scale = Robot(robot_name).scale  # TALOS's range and change, scaled to the model's robot
+            scale = robot.scale  # TALOS's range and change, scaled to the model's robot
             lengths = length_range_mm(scale)
             args.max_change_mm *= scale.length
             sequences = [{"lengths_mm": random_lengths(rng, args.max_change_mm, lengths=lengths)} for _ in range(args.n)]
