@@ -424,3 +424,22 @@ def test_a_model_of_a_robot_of_ones_own_carries_its_description(model, tmp_path)
     save_model(tmp_path / "mybot.npz", model, {"robot": "mybot", "robot_description": described})
     robot = model_robot(load_model(tmp_path / "mybot.npz"))
     assert robot.name == "mybot" and robot.joint_names == Robot("talos").joint_names
+
+
+@pytest.mark.slow  # the benchmark runs in a new process
+def test_the_random_walks_benchmark_takes_a_model_of_ones_own_robot(model, tmp_path):
+    """``benchmarks/random_walks.py`` builds the robot from the model, its recorded
+    description included: a robot that is not bundled draws its walks in its own range."""
+    import subprocess
+    import sys
+
+    from cocomopl.robot import Robot
+
+    described = {**Robot("talos").description, "name": "mybot"}
+    save_model(tmp_path / "mybot.npz", model, {"robot": "mybot", "robot_description": described})
+    benchmark = Path(__file__).parents[1] / "benchmarks" / "random_walks.py"
+    result = subprocess.run([sys.executable, str(benchmark), "--model", str(tmp_path / "mybot.npz"), "--n", "3",
+                             "--dry-run", "--json"], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    lengths = np.array([walk["lengths_mm"] for walk in json.loads(result.stdout)["walks"]])
+    assert lengths.shape == (3, 9) and lengths.min() >= 150 and lengths.max() <= 400  # TALOS's range: mybot is TALOS
