@@ -312,6 +312,8 @@ def interrupting_import(name, *args, **kwargs):
     return real_import(name, *args, **kwargs)
 
 
+# Python's own Ctrl-C handler, also where the tests run with SIGINT ignored (nohup, a background job)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 builtins.__import__ = interrupting_import
 sys.argv = ["cocomopl", "generate", "--out", {out!r}]
 runpy.run_module("cocomopl", run_name="__main__", alter_sys=True)
