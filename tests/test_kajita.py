@@ -333,3 +333,10 @@ def test_a_kajita_setting_a_description_cannot_set_is_one_line_naming_it(tmp_pat
     with pytest.raises(Error, match=re.escape(words)) as info:
         KajitaSettings().scaled_to(r)
     assert "\n" not in str(info.value)
+
+
+def test_robot_check_refuses_a_kajita_setting_it_cannot_apply(tmp_path):
+    from conftest import assert_one_line_error, run_cli
+
+    _described(tmp_path, {"preview": 1.0})
+    assert_one_line_error(run_cli("robot", "check", str(tmp_path / "g1k.json")), "defaults.kajita.preview is not a Kajita setting")
