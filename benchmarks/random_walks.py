@@ -68,9 +68,9 @@ from cocomopl.errors import Error
 from cocomopl.motion import Footstep
 from cocomopl.pipeline import FILTER_WARNING_M
 from cocomopl.planning.footsteps import MAX_LANDINGS, footstep_specs, landings_of, write_landings
-from cocomopl.primitives.model_file import METADATA_KEY, load_model, model_robot
+from cocomopl.primitives.model_file import METADATA_KEY, load_model, metadata_robot, model_robot
 from cocomopl.requests import FIRST_SWINGS
-from cocomopl.robot import DEFAULT_ROBOT, Robot
+from cocomopl.robot import Robot
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant
 from cocomopl.sim.rollout import REFERENCE_CUTOFF_HZ, check_reference_cutoff
 
@@ -187,16 +187,16 @@ def random_goal(rng: np.random.Generator) -> list[float]:
             float(np.round(rng.uniform(-90, 90), 1))]
 
 
-def metadata_robot(path: str) -> Robot:
-    """The robot a model file is for, from its metadata alone: its recorded description (a
-    robot that is not bundled), else its bundled name; the arrays' checks take seconds, and
-    the run itself makes them (:func:`~cocomopl.primitives.model_file.load_model`)."""
+def file_robot(path: str) -> Robot:
+    """The robot a model file is for, from its metadata alone
+    (:func:`~cocomopl.primitives.model_file.metadata_robot`): the arrays' checks take
+    seconds, and the run itself makes them (:func:`~cocomopl.primitives.model_file.load_model`)."""
     try:
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(data[METADATA_KEY].item())
     except (OSError, KeyError, ValueError, AttributeError) as exc:
         raise Error(f"{path}: not a readable cocomopl model file ({exc.__class__.__name__})") from None
-    return Robot(meta.get("robot_description") or meta.get("robot", DEFAULT_ROBOT))
+    return metadata_robot(meta)
 
 
 def label(result: dict) -> str:
@@ -323,7 +323,7 @@ def main() -> int:
         check_contact_time_constant(args.contact_time_constant_s)
         check_reference_cutoff(args.reference_cutoff_hz)
         # a missing or broken file fails here, not once per worker; a dry run reads only the robot
-        robot = metadata_robot(args.model) if args.dry_run else model_robot(load_model(args.model))
+        robot = file_robot(args.model) if args.dry_run else model_robot(load_model(args.model))
         if args.footsteps and args.footstep_dir is not None:
             args.footstep_dir.mkdir(parents=True, exist_ok=True)
     except (Error, OSError) as exc:

@@ -667,12 +667,17 @@ def model_metadata(path: str | Path) -> dict:
 
 
 def model_robot(model):
-    """The robot a loaded model is for, from its metadata: its recorded description if it has
-    one (a robot that is not bundled), else its bundled name (default TALOS)."""
+    """The robot a loaded model is for, from its metadata (:func:`metadata_robot`)."""
+    return metadata_robot(getattr(model, "metadata_", None) or {})
+
+
+def metadata_robot(meta: dict):
+    """The robot a model's metadata ``meta`` names: its recorded description if it has one (a
+    robot that is not bundled), else its bundled name (default TALOS); an :class:`Error` if
+    the robot no longer has the fingerprint the model recorded."""
     from cocomopl.motion_file import check_robot_model, load_robot
     from cocomopl.robot import DEFAULT_ROBOT
 
-    meta = getattr(model, "metadata_", None) or {}
     described = meta.get("robot_description")
     robot = load_robot(meta.get("robot") or DEFAULT_ROBOT, None if described is None else json.dumps(described, sort_keys=True))
     check_robot_model(meta.get("robot_model"), robot, "the model")
