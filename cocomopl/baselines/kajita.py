@@ -38,7 +38,7 @@ from cocomopl.gait import footsteps, ground_position, ground_yaw, mean_yaw, phas
 from cocomopl.kinematics import flat_placement, leg_joints, place_legs
 from cocomopl.motion import Motion, StepSpec
 from cocomopl.robot import Robot
-from cocomopl.robot.description import finite_number, positive_number
+from cocomopl.robot.description import checked_overrides, finite_number, positive_number
 from cocomopl.synthesis.dynamics_filter import dynamics_filter, multibody_zmp, rms_zmp_error
 
 STANDING_ITERATIONS = 10  # pelvis shifts to bring the CoM of the first posture above its target
@@ -117,19 +117,8 @@ class KajitaSettings:
             pelvis_drop=None if self.pelvis_drop is None else self.pelvis_drop * length,
             drop_search_range=(self.drop_search_range[0] * length, self.drop_search_range[1] * length),
         )
-        return replace(scaled, **_kajita_override(robot))
-
-
-def _kajita_override(robot: Robot) -> dict:
-    """The description's ``defaults.kajita``, each value checked against its field."""
-    given = robot.override("kajita") or {}
-    for name, value in given.items():
-        if name not in _OVERRIDE_CHECKS:
-            raise Error(f"robot description: defaults.kajita.{name} is not a Kajita setting (a field of KajitaSettings)")
-        accepts, wants = _OVERRIDE_CHECKS[name]
-        if not accepts(value):
-            raise Error(f"robot description: defaults.kajita.{name} must be {wants}, not {value!r}")
-    return {name: tuple(value) if name == "drop_search_range" else value for name, value in given.items()}
+        return replace(scaled, **checked_overrides(robot.override("kajita") or {}, _OVERRIDE_CHECKS, section="kajita",
+                                                   what="a Kajita setting (a field of KajitaSettings)"))
 
 
 # per field of KajitaSettings: what a description may give it, and how to say so

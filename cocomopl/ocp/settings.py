@@ -115,13 +115,16 @@ def robot_settings(scale: Scale, overrides: dict | None = None) -> OCPSettings:
     TALOS (a scale of 1) gets the defaults exactly.  ``overrides`` (a robot description's
     ``defaults.ocp``, :meth:`~cocomopl.robot.Robot.override`) replace any of them.
     """
+    from cocomopl.robot.description import checked_overrides
+
     d = OCPSettings()
     durations = {key: scale.duration(getattr(d, key), d.dt) for key in ("ds_duration", "start_ds_duration", "rest_duration")}
     durations["ss_duration"] = scale.single_support(d.ss_duration, d.dt)
     scaled = replace(d, zmp_margin=d.zmp_margin * scale.width, clearance=d.clearance * scale.length,
                      swing_lateral_gap=d.swing_lateral_gap * scale.length, sole_gap=d.sole_gap * scale.length,
                      w_load_transfer=d.w_load_transfer / scale.mass**2, **durations)
-    return replace(scaled, **_checked_overrides(overrides or {}))
+    return replace(scaled, **checked_overrides(overrides or {}, _OVERRIDE_CHECKS, section="ocp",
+                                               what="an OCP setting (a field of OCPSettings)"))
 
 
 def settings_for(robot) -> OCPSettings:
@@ -130,25 +133,20 @@ def settings_for(robot) -> OCPSettings:
     return robot_settings(robot.scale, robot.override("ocp"))
 
 
-def _checked_overrides(overrides: dict) -> dict:
-    """A robot description's ``defaults.ocp`` as settings, or an :class:`Error` naming the
-    first entry that is not a setting or not a value it takes."""
-    defaults, out, known = OCPSettings(), {}, {f.name for f in fields(OCPSettings)}
-    for name, value in overrides.items():
-        if name not in known:
-            raise Error(f"robot description: defaults.ocp.{name} is not an OCP setting (a field of OCPSettings)")
-        default, number = getattr(defaults, name), isinstance(value, int | float) and not isinstance(value, bool)
-        if isinstance(default, tuple):
-            ok = (isinstance(value, list) and len(value) == 2 and all(isinstance(v, int | float) and v > 0 for v in value)
-                  and value[0] < value[1])
-            wants, value = "two increasing positive numbers", tuple(value) if ok else value
-        elif isinstance(default, int):
-            ok, wants = isinstance(value, int) and not isinstance(value, bool) and value > 0, "a positive whole number"
-        elif name == "dt":
-            ok, wants = number and math.isfinite(value) and value > 0, "a positive number"
-        else:
-            ok, wants = number and math.isfinite(value) and value >= 0, "a number of at least 0"
-        if not ok:
-            raise Error(f"robot description: defaults.ocp.{name} must be {wants}, not {value!r}")
-        out[name] = value
-    return out
+def _override_check(name: str, default) -> tuple:
+    """What a description's ``defaults.ocp`` may give the setting ``name`` (its default
+    ``default``), and how to say so (:func:`~cocomopl.robot.description.checked_overrides`)."""
+    def number(value) -> bool:
+        return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+    if isinstance(default, tuple):
+        return (lambda v: isinstance(v, list) and len(v) == 2 and all(isinstance(x, int | float) and x > 0 for x in v)
+                and v[0] < v[1]), "two increasing positive numbers"
+    if isinstance(default, int):
+        return (lambda v: isinstance(v, int) and not isinstance(v, bool) and v > 0), "a positive whole number"
+    if name == "dt":
+        return (lambda v: number(v) and v > 0), "a positive number"
+    return (lambda v: number(v) and v >= 0), "a number of at least 0"
+
+
+_OVERRIDE_CHECKS = {f.name: _override_check(f.name, getattr(OCPSettings(), f.name)) for f in fields(OCPSettings)}

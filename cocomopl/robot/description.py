@@ -161,6 +161,20 @@ def _check_defaults(defaults, where: str) -> None:
         raise fail("simulation", f"an object of {', '.join(SIMULATION_KEYS)}: true or false", simulation)
 
 
+def checked_overrides(given: dict, checks: dict, *, section: str, what: str) -> dict:
+    """A description's ``defaults.<section>`` (``given``) checked entry by entry against
+    ``checks`` (a setting's name -> (accepts, wants): a predicate on the JSON value and what to
+    call a value it accepts), with JSON lists as tuples; an :class:`Error` naming the first
+    entry that is not ``what`` (e.g. "an OCP setting") or not a value it takes."""
+    for name, value in given.items():
+        if name not in checks:
+            raise Error(f"robot description: defaults.{section}.{name} is not {what}")
+        accepts, wants = checks[name]
+        if not accepts(value):
+            raise Error(f"robot description: defaults.{section}.{name} must be {wants}, not {value!r}")
+    return {name: tuple(value) if isinstance(value, list) else value for name, value in given.items()}
+
+
 def finite_number(value) -> bool:
     """Whether a JSON value is a finite number (not a boolean)."""
     return isinstance(value, int | float) and not isinstance(value, bool) and bool(np.isfinite(value))
