@@ -674,7 +674,7 @@ def model_robot(model):
 def metadata_robot(meta: dict):
     """The robot a model's metadata ``meta`` names: its recorded description if it has one (a
     robot that is not bundled), else its bundled name (default TALOS); an :class:`Error` if
-    the robot no longer has the fingerprint the model recorded."""
+    the robot's fingerprint differs from the one the model recorded."""
     from cocomopl.motion_file import check_robot_model, load_robot
     from cocomopl.robot import DEFAULT_ROBOT
 
