@@ -15,6 +15,7 @@ from cocomopl.dataset.plan import successors
 from cocomopl.dataset.signals import training_signals
 from cocomopl.dynamics import finite_difference_accelerations, inverse_dynamics_residual, sole_placements
 from cocomopl.errors import Error
+from cocomopl.motion import StepSpec
 from cocomopl.motion_file import read_motions
 from cocomopl.robot import mirror_motion
 
@@ -147,7 +148,7 @@ def test_phase_timing_is_searched_and_the_cheapest_kept(robot, monkeypatch):
 
     solved = []  # (kind, single-support duration) of each OCP handed to the solver
 
-    def solve_with_retries(robot, spec, states, *, settings, guesses):
+    def solve_with_retries(robot, spec, states, *, settings, guesses, extra_iterations=0):
         solved.append((spec.kind, settings.ss_duration))
         cost = 1.0 + (settings.ss_duration - 0.7) ** 2
         return SimpleNamespace(stats={"cost": cost, "iterations": 10}), [{"guess": "warm start", "converged": True}]
@@ -162,6 +163,39 @@ def test_phase_timing_is_searched_and_the_cheapest_kept(robot, monkeypatch):
     assert info["durations"][1] == pytest.approx(0.7)
     assert solutions["cyclic"].stats["cost"] == min(searched.values())
     assert sorted(solved[3:]) == [("start", pytest.approx(0.7)), ("stop", pytest.approx(0.7))]
+
+
+@pytest.mark.parametrize("continued_converges", [True, False])
+def test_when_every_guess_stops_unconverged_the_closest_is_continued(robot, monkeypatch, continued_converges):
+    """A step whose guesses all run out of iterations gets one more chance: the attempt of least
+    cost continues from its own states and controls (the solver is stubbed)."""
+    from types import SimpleNamespace
+
+    from cocomopl.ocp import solve as ocp_solve
+
+    costs = {"warm start": 2.0, "kinematic": 1.0, "static": 3.0}
+
+    def solve_step(robot, spec, states, *, settings, guess, max_iterations):
+        label = guess if isinstance(guess, str) else "warm start"
+        return SimpleNamespace(plan=label, xs=[label], us=[label], stats={"cost": costs[label], "converged": False})
+
+    continued = []
+
+    def solve_plan(robot, plan, settings, *, guess, controls, max_iterations):
+        continued.append((plan, guess, controls, max_iterations))
+        return SimpleNamespace(plan=plan, xs=guess, us=controls, stats={"cost": 0.5, "converged": continued_converges})
+
+    monkeypatch.setattr(ocp_solve, "solve_step", solve_step)
+    monkeypatch.setattr(ocp_solve, "solve_plan", solve_plan)
+    monkeypatch.setattr(ocp_solve, "failed_checks", lambda robot, solution, settings: ([], 0.0))
+    spec = StepSpec("transition", 0.2, 0.3, "left")
+    solution, attempts = ocp_solve.solve_with_retries(robot, spec, {}, settings=SMALL, guesses=[["x"], "kinematic", "static"],
+                                                      extra_iterations=77)
+    assert continued == [("kinematic", ["kinematic"], ["kinematic"], 77)]
+    assert [a["guess"] for a in attempts] == ["warm start", "kinematic", "static", "kinematic, continued"]
+    assert (solution is not None) == continued_converges
+    none, _ = ocp_solve.solve_with_retries(robot, spec, {}, settings=SMALL, guesses=["static"])
+    assert none is None and len(continued) == 1  # without extra iterations, no continuation
 
 
 @pytest.mark.parametrize("neighbour_works", [True, False])
