@@ -16,7 +16,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from cocomopl.data import BUNDLED_MODEL, BUNDLED_OMNI_MODEL
+from cocomopl.data import BUNDLED_MODEL, BUNDLED_OMNI_MODEL, model_path
 from cocomopl.errors import Error
 from cocomopl.gait import FOOTSTEP_RANGE, check_footstep
 from cocomopl.motion import Footstep
@@ -25,6 +25,7 @@ from cocomopl.planning import goal as goal_planner
 from cocomopl.planning.footsteps import footstep_specs, landings_of, read_landings, walk_specs, write_landings
 from cocomopl.primitives.model_file import load_model
 from cocomopl.requests import Footsteps, WalkRequest
+from cocomopl.robot import Robot
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, outside_support
 
 from conftest import assert_one_line_error, run_cli
@@ -143,6 +144,18 @@ def test_generate_warns_about_a_footstep_file_and_strict_refuses_it(outside, tmp
 def test_the_planner_plans_steps_inside_the_support(robot, omni_model, x, y, yaw_deg):
     specs = plan_in_support(robot, omni_model, [(x, y, math.radians(yaw_deg))])
     assert all(step.in_support for step in omni_model.predict_many(specs))
+
+
+@pytest.mark.slow  # plans three walks on G1's bundled omnidirectional model
+@pytest.mark.parametrize("x, y, yaw_deg", [(1.0, 0.5, 90), (-0.5, 0.0, 0), (0.0, -0.4, 0)])
+def test_g1s_planner_plans_steps_inside_its_own_models_support(x, y, yaw_deg):
+    """G1's footsteps are its own (a range scaled to its legs): its bundled model is the one
+    the plans are held to, and every planned step is inside that model's support."""
+    g1 = Robot("g1")
+    model = load_model(model_path(omni=True, robot="g1")).prepare()
+    specs = plan_in_support(g1, model, [(x, y, math.radians(yaw_deg))])
+    assert all(_allowed(g1, spec.end_footstep) for spec in specs if spec.kind != "stop")
+    assert all(step.in_support for step in model.predict_many(specs))
 
 
 @pytest.mark.slow  # loads the bundled omnidirectional model

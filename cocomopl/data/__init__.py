@@ -4,7 +4,7 @@
 ``BUNDLED_MODEL`` the movement primitives trained on them; ``BUNDLED_OMNI_DATASET`` and
 ``BUNDLED_OMNI_MODEL`` the same over the step space (turning, side and backward steps),
 which footstep plans and goals use.  Another bundled robot's files carry its name in front
-(``g1_dataset.h5``, ``g1_model.npz``).  All record in their metadata the command, versions
+(``g1_dataset.h5``, ``g1_model.npz``, ``g1_omni_dataset.h5``, ``g1_omni_model.npz``).  All record in their metadata the command, versions
 and date that made them.
 """
 
