@@ -4,12 +4,13 @@ that records what it was given, so the bookkeeping is checked without solving.  
 settings: read as they were solved."""
 
 import concurrent.futures as cf
+import json
 
 import numpy as np
 import pytest
 
 from cocomopl.dataset import generate as module
-from cocomopl.dataset.generate import JobResult, solve_by_continuation
+from cocomopl.dataset.generate import JobResult, settings_problem, solve_by_continuation
 from cocomopl.errors import Error
 from cocomopl.motion import SolutionRecord, StepSpec
 from cocomopl.ocp.settings import OCPSettings
@@ -73,11 +74,22 @@ def test_a_single_length_is_solved_once(monkeypatch):
     assert record["200"]["chosen"] == "ascending"
 
 
-def test_settings_saved_before_the_upper_body_weight_read_as_they_were_solved():
-    saved = OCPSettings(w_posture=2.0).as_dict()
-    del saved["w_upper_posture"]
-    assert OCPSettings.from_saved(saved).w_upper_posture == 2.0  # then the legs' weight held for every joint
+def test_settings_saved_before_the_upper_body_weights_read_as_they_were_solved():
+    saved = OCPSettings(w_posture=2.0, w_velocity=0.4).as_dict()
+    del saved["w_upper_posture"], saved["w_upper_velocity"]
+    read = OCPSettings.from_saved(saved)
+    assert (read.w_upper_posture, read.w_upper_velocity) == (2.0, 0.4)  # then the legs' weights held for every joint
     assert OCPSettings.from_saved(OCPSettings().as_dict()) == OCPSettings()
+
+
+def test_a_part_saved_before_a_weight_existed_has_the_settings_it_was_solved_with():
+    """A dataset or part written before the upper body's velocity weight existed is reusable
+    under the defaults (the weight then was the legs'), and not under other values."""
+    current = json.loads(json.dumps(OCPSettings().as_dict()))
+    saved = {k: v for k, v in current.items() if k != "w_upper_velocity"}
+    assert settings_problem(saved, current) is None
+    changed = json.loads(json.dumps(OCPSettings(w_upper_velocity=1.0).as_dict()))
+    assert "w_upper_velocity 0.1, now 1.0" in settings_problem(saved, changed)
 
 
 def test_settings_of_an_unknown_kind_are_refused():

@@ -165,6 +165,26 @@ def test_phase_timing_is_searched_and_the_cheapest_kept(robot, monkeypatch):
     assert sorted(solved[3:]) == [("start", pytest.approx(0.7)), ("stop", pytest.approx(0.7))]
 
 
+def test_the_upper_body_has_its_own_posture_and_velocity_weights(robot):
+    """The posture cost weighs the joints that carry no sole by ``w_upper_posture`` and their
+    velocities by ``w_upper_velocity``; the legs and the base by the others."""
+    from dataclasses import replace
+
+    import crocoddyl
+
+    from cocomopl.ocp.action_models import posture_cost
+
+    settings = replace(SMALL, w_posture=1.0, w_upper_posture=3.0, w_velocity=0.1, w_upper_velocity=0.7)
+    state = crocoddyl.StateMultibody(robot.model)
+    weights = np.sqrt(posture_cost(robot, state, robot.nu, x_ref=state.zero(), settings=settings).activation.weights)
+    nv, upper = robot.model.nv, robot.upper_body_joint_indices()
+    legs = np.setdiff1d(np.arange(robot.nu), upper)
+    joints, velocities = weights[6:nv], weights[nv + 6:]
+    assert np.allclose(joints[upper], 3.0) and np.allclose(joints[legs], 1.0)
+    assert np.allclose(velocities[upper], 0.7) and np.allclose(velocities[legs], 0.1)
+    assert np.allclose(weights[nv:nv + 6], 0.1)  # the base's velocities
+
+
 @pytest.mark.parametrize("continued_converges", [True, False])
 def test_when_every_guess_stops_unconverged_the_closest_is_continued(robot, monkeypatch, continued_converges):
     """A step whose guesses all run out of iterations gets one more chance: the attempt of least

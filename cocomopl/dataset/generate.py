@@ -188,9 +188,13 @@ def write_part(parts: Path, spec: StepSpec, motion: Motion, *, attrs: dict) -> N
 
 
 def settings_problem(saved, current: dict) -> str | None:
-    """Why the settings ``saved`` with a part are not ``current``, or None."""
+    """Why the settings ``saved`` with a part are not ``current``, or None.  A weight added
+    since ``saved`` was written counts with the value it had before it existed
+    (:meth:`~cocomopl.ocp.settings.OCPSettings.from_saved`)."""
     if not isinstance(saved, dict):
         return "it records no OCP settings"
+    with contextlib.suppress(Error, TypeError):  # an unknown key is named below, key by key
+        saved = json.loads(json.dumps(OCPSettings.from_saved(saved).as_dict()))
     changed = [key for key in sorted(set(saved) | set(current)) if saved.get(key) != current.get(key)]
     if changed:
         return "it was solved with other OCP settings (" + ", ".join(

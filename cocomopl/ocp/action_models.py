@@ -44,14 +44,17 @@ def torque_cost(state, nu: int) -> crocoddyl.CostModelResidual:
 
 def posture_cost(robot: Robot, state, nu: int, *, x_ref: np.ndarray, settings: OCPSettings):
     """Weak pull towards a reference state; resolves null-space drift (a small J_pen term)."""
+    upper = robot.upper_body_joint_indices()
     joints = np.full(robot.nu, settings.w_posture)
-    joints[robot.upper_body_joint_indices()] = settings.w_upper_posture
+    joints[upper] = settings.w_upper_posture
+    velocities = np.full(robot.model.nv, settings.w_velocity)
+    velocities[6 + upper] = settings.w_upper_velocity
     weights = np.concatenate(
         [
             np.zeros(3),  # base position is free: the step moves it
             10.0 * np.ones(3),  # base orientation
             joints,
-            settings.w_velocity * np.ones(robot.model.nv),
+            velocities,
         ]
     )
     residual = crocoddyl.ResidualModelState(state, x_ref, nu)

@@ -58,6 +58,10 @@ class OCPSettings:
     # leg torque squared there (docs/method.md#a-unique-upper-body)
     w_upper_posture: float = 3.0
     w_velocity: float = 1e-1
+    # on the velocities of the joints that carry no sole, in place of w_velocity: light arms
+    # left at the legs' weight swing at up to 30 rad/s in G1's step-space transitions, where
+    # TALOS's stay under 4.2 (docs/experiments/g1-arm-velocities.md)
+    w_upper_velocity: float = 1e-1
     w_constraint: float = 1e4
     w_limits: float = 1e5
     # on the soles' gap, m^-2: 1 mm short costs 50, about a cyclic step's whole cost (the
@@ -94,8 +98,9 @@ class OCPSettings:
         unknown = sorted(set(saved) - {f.name for f in fields(cls)})
         if unknown:
             raise Error(f"the OCP settings name {', '.join(unknown)}, which this cocomopl does not know")
-        # before w_upper_posture, the upper body had the legs' posture weight
-        saved = {"w_upper_posture": saved.get("w_posture", cls.w_posture), **saved}
+        # before w_upper_posture and w_upper_velocity, the upper body had the legs' weights
+        saved = {"w_upper_posture": saved.get("w_posture", cls.w_posture),
+                 "w_upper_velocity": saved.get("w_velocity", cls.w_velocity), **saved}
         values = {k: tuple(v) if isinstance(v, list) else v for k, v in saved.items()}
         return cls(**values)
 
