@@ -519,14 +519,17 @@ def file_attrs(f: h5py.File) -> dict:
 
 
 def _robot_description(motions) -> str | None:
-    """The JSON description of the robot of ``motions`` if it is not a bundled one (whose
-    name a file gives enough) and was built in this process."""
-    from cocomopl.robot.description import available_robots, built_description
+    """The JSON description of the robot of ``motions`` if it was built in this process and is
+    not the bundled description of its name (which the name gives enough): a robot of one's
+    own, or a bundled robot's description copied and changed under the same name."""
+    from cocomopl.robot.description import available_robots, built_description, read_description
 
     names = {motion.robot for motion in motions}
     name = names.pop() if len(names) == 1 else None
-    described = None if name is None or name in available_robots() else built_description(name)
-    return None if described is None else json.dumps(described, sort_keys=True)
+    described = None if name is None else built_description(name)
+    if described is None or (name in available_robots() and described == read_description(name)):
+        return None
+    return json.dumps(described, sort_keys=True)
 
 
 def _robot_fingerprint(motions) -> str | None:

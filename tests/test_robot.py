@@ -300,6 +300,37 @@ def test_a_file_made_for_a_robot_of_ones_own_reads_back_without_its_description(
         assert json.loads(f.attrs["robot_description"])["example_robot_data"] == "g1"
 
 
+@pytest.mark.slow  # runs a second process
+def test_a_changed_copy_of_a_bundled_description_under_its_name_is_recorded_in_files(tmp_path):
+    """A bundled robot's description copied with another default and the same name (TALOS
+    with its own velocity weight) is another model of that robot: its files record the
+    description and read back without it, where the bundled description would be refused."""
+    import json
+    import subprocess
+    import sys
+
+    from cocomopl.robot.description import read_description
+
+    copied = tmp_path / "talos.json"
+    copied.write_text(json.dumps({**read_description("talos"), "defaults": {"ocp": {"w_upper_velocity": 0.5}}}))
+    make = ("from cocomopl.motion_file import write_motions; from cocomopl.robot import Robot; import sys; "
+            "sys.path.insert(0, sys.argv[3]); from conftest import synthetic; r = Robot(sys.argv[1]); "
+            "write_motions(sys.argv[2], {'stand': synthetic(r, [0.0, 0.1])}, {'robot': 'talos'})")
+    tests = str(Path(__file__).parent)
+    made = subprocess.run([sys.executable, "-c", make, str(copied), str(tmp_path / "copy.h5"), tests],
+                          capture_output=True, text=True)
+    assert made.returncode == 0, made.stderr
+    read_back = ("from cocomopl.motion_file import read_motions; import sys; m, a = read_motions(sys.argv[1]); "
+                 "print(m['stand'].robot)")
+    result = subprocess.run([sys.executable, "-c", read_back, str(tmp_path / "copy.h5")], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["talos"]
+    import h5py
+
+    with h5py.File(tmp_path / "copy.h5") as f:
+        assert json.loads(f.attrs["robot_description"])["defaults"] == {"ocp": {"w_upper_velocity": 0.5}}
+
+
 @pytest.mark.slow  # runs the command line or a second process
 def test_robot_check_prints_what_is_derived_and_draws_the_posture(tmp_path):
     import json
