@@ -236,8 +236,9 @@ def test_bundled_dataset_is_complete_and_passes_the_check(capsys):
     assert info["command"].startswith("cocomopl dataset generate")
     assert info["versions"]["crocoddyl"] == "3.2.1" and info["created"]
     # solved with the default settings, so plain `cocomopl dataset generate` makes it again;
-    # the sole gap added since then acts on turning steps only, which it has none of
+    # the sole gap added since then acts on turning steps only, which it has none of; the upper
+    # body's velocity weight added since then reads as the legs' weight it had
     assert OCPSettings.from_saved(info["settings"]) == OCPSettings()
-    assert set(OCPSettings().as_dict()) - set(info["settings"]) == {"sole_gap", "w_sole_gap"}
+    assert set(OCPSettings().as_dict()) - set(info["settings"]) == {"sole_gap", "w_sole_gap", "w_upper_velocity"}
     assert main(["dataset", "check", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["ok"] is True
