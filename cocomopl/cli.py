@@ -51,7 +51,7 @@ def cmd_dataset_generate(args):
     replacing(args, args.out, inputs=[args.robot, *args.reuse])
     return generate_dataset(args.out, lengths, extra, robot=args.robot, dt=args.dt, max_iterations=args.max_iterations,
                             load_transfer_weight=args.load_transfer_weight, min_knee_flexion=args.min_knee_flexion_rad,
-                            workers=args.workers, scheduler=args.scheduler, command=args.command_line, progress=True,
+                            upper_velocity_weight=args.upper_velocity_weight, workers=args.workers, scheduler=args.scheduler, command=args.command_line, progress=True,
                             record=record, continuation=record is None, reuse=args.reuse)
 
 
@@ -254,6 +254,9 @@ def _dataset_parsers(sub) -> None:
     gen.add_argument("--min-knee-flexion-rad", type=o.non_negative_float, metavar="RAD",
                      help=f"least bend of the knees at every knot, in rad (default: {defaults.min_knee_flexion:g}; "
                      "0 for only the URDF's limits; docs/method.md)")
+    gen.add_argument("--upper-velocity-weight", type=o.non_negative_float, metavar="W",
+                     help="weight of the upper body's joint velocities (rad/s) in the posture cost (default: the "
+                     "robot's, which is the legs' weight unless its description sets it; docs/method.md)")
     gen.set_defaults(func=cmd_dataset_generate)
 
     info = dataset.add_parser("info", help="summarise a dataset (default: the bundled one)")

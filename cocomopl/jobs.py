@@ -66,6 +66,7 @@ def generate_dataset(
     max_iterations: int | None = None,
     load_transfer_weight: float | None = None,
     min_knee_flexion: float | None = None,
+    upper_velocity_weight: float | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     command: str | None = None,
@@ -78,8 +79,8 @@ def generate_dataset(
 
     The OCP settings are :class:`~cocomopl.ocp.settings.OCPSettings`'s defaults scaled to the
     robot (:func:`~cocomopl.ocp.settings.settings_for`; TALOS's are the defaults), with
-    each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2) and
-    ``min_knee_flexion`` (rad) that is not None instead; ``record`` (how the set was
+    each of ``dt`` (s), ``max_iterations``, ``load_transfer_weight`` (N^-2),
+    ``min_knee_flexion`` (rad) and ``upper_velocity_weight`` that is not None instead; ``record`` (how the set was
     designed) is added to the dataset's attributes; ``continuation=False`` solves each
     footstep from its own guess (a step-space design).  The steps already solved in the
     datasets ``reuse`` (same robot, same OCP settings: :func:`~cocomopl.dataset.generate.reusable_steps`)
@@ -92,7 +93,7 @@ def generate_dataset(
 
     description = Robot(robot)
     overrides = {"dt": dt, "max_iterations": max_iterations, "w_load_transfer": load_transfer_weight,
-                 "min_knee_flexion": min_knee_flexion}
+                 "min_knee_flexion": min_knee_flexion, "w_upper_velocity": upper_velocity_weight}
     defaults = settings_for(description)
     settings = replace(defaults, **{k: v for k, v in overrides.items() if v is not None})
     out = output_file(out, "dataset.h5", inputs=[robot, *reuse])  # a robot description file is an input

@@ -100,7 +100,8 @@ def test_missing_urdf(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "option",
-    [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"], ["--load-transfer-weight", "-0.001"], ["--min-knee-flexion-rad", "-0.1"]],
+    [["--workers", "0"], ["--dt", "-1"], ["--max-iterations", "x"], ["--load-transfer-weight", "-0.001"], ["--min-knee-flexion-rad", "-0.1"],
+     ["--upper-velocity-weight", "-1"]],
 )
 def test_bad_numeric_options(tmp_path, option):
     result = run_cli("dataset", "generate", *option, "--out", str(tmp_path / "d.h5"))

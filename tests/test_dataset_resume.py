@@ -232,3 +232,21 @@ def test_a_dask_worker_that_dies_is_an_error_not_a_traceback():
           job_executor(1, cluster.scheduler_address) as executor,
           pytest.raises(Error, match=r"a solver process died .*run the same command again to resume")):
         job_result(executor.submit(os._exit, 1))
+
+
+@pytest.mark.parametrize("option, expected", [([], 0.1), (["--upper-velocity-weight", "1.5"], 1.5)])
+def test_the_upper_velocity_weight_option_reaches_the_ocp_settings(tmp_path, monkeypatch, capsys, option, expected):
+    from cocomopl.dataset import generate as module
+
+    solved_with = []
+
+    def no_solving(*args, settings, **kwargs):
+        solved_with.append(settings)
+        raise Error("stopped before solving")
+
+    monkeypatch.setattr(module, "generate", no_solving)
+    assert main(["dataset", "generate", "--lengths-mm", "200", *option, "--out", str(tmp_path / "d.h5")]) == 2
+    assert "stopped before solving" in capsys.readouterr().err
+    (settings,) = solved_with
+    assert settings.w_upper_velocity == expected
+    assert settings.w_velocity == 0.1  # the legs keep theirs
