@@ -37,6 +37,7 @@ from cocomopl.motion_file import read_motions, writable_folder, write_motions
 from cocomopl.ocp.action_models import knee_bounds
 from cocomopl.ocp.settings import OCPSettings
 from cocomopl.ocp.solve import length_steps, phase_durations, solve_length, solve_transition, to_motion
+from cocomopl.processes import exit_with_parent
 from cocomopl.provenance import versions
 from cocomopl.robot import DEFAULT_ROBOT, Robot, mirror_motion
 
@@ -349,7 +350,8 @@ def job_executor(workers: int, scheduler: str | None) -> Iterator[cf.Executor]:
             client.close()
         return
     # spawned, not forked: a fork of a process that runs JAX or Dask threads can deadlock
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=exit_with_parent, initargs=(os.getpid(),))
     try:
         yield pool
     finally:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import os
 import threading
 from collections.abc import Iterable
 from concurrent.futures import ProcessPoolExecutor
@@ -29,6 +30,7 @@ from cocomopl.errors import Error
 from cocomopl.primitives import DEFAULT_KERNELS, DEFAULT_MAX_ITERATIONS, DEFAULT_PRIMITIVES, DEFAULT_WIDTHS
 from cocomopl.primitives.estimator import MovementPrimitives
 from cocomopl.primitives.training import TrainingSteps
+from cocomopl.processes import exit_with_parent
 
 EXPLAINED_ENOUGH = 0.999  # explained variance each signal group needs (joints, ZMP, pelvis)
 
@@ -97,7 +99,8 @@ def select_model(
     fitted: list[MovementPrimitives] = []
     bar = tqdm(total=len(models), desc="fitting", unit="model", disable=not progress)
     others = set(multiprocessing.active_children())
-    pool = ProcessPoolExecutor(workers, multiprocessing.get_context("spawn"), initializer=_thread_lock_for_bars)
+    pool = ProcessPoolExecutor(workers, multiprocessing.get_context("spawn"), initializer=_start_worker,
+                               initargs=(os.getpid(),))
     try:
         pending = {S: [pool.submit(model.fit, steps) for model in models if model.n_primitives == S] for S in sizes}
         for S in sizes:
@@ -127,10 +130,12 @@ def _fitted(future) -> MovementPrimitives:
                     "run the same command again") from None
 
 
-def _thread_lock_for_bars() -> None:
+def _start_worker(parent: int) -> None:
     """Give a worker's progress bars a thread lock, not tqdm's default process lock: a worker
-    stopped mid-fit would leave that lock's semaphores behind, and Python warns about them."""
+    stopped mid-fit would leave that lock's semaphores behind, and Python warns about them.
+    And end the worker with its parent (:func:`~cocomopl.processes.exit_with_parent`)."""
     tqdm.set_lock(threading.RLock())
+    exit_with_parent(parent)
 
 
 def settled(rows: list[dict]) -> bool:
