@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing as mp
 import sys
 import time
 from functools import partial
@@ -42,6 +41,7 @@ from tqdm import tqdm
 
 from cocomopl.gait import M_GEN_MM
 from cocomopl.ocp.settings import DEFAULT_WARM_START, WARM_STARTS
+from cocomopl.processes import spawn_pool
 
 SEED = 5
 
@@ -112,7 +112,7 @@ def main() -> int:
     rng = np.random.default_rng(args.seed)
     sequences = [[float(x) for x in M_GEN_MM.split(",")]] + [random_lengths(rng, 100.0) for _ in range(args.n)]
     started = time.perf_counter()
-    with mp.get_context("spawn").Pool(args.workers) as pool:
+    with spawn_pool(args.workers) as pool:
         walks = list(tqdm(pool.imap(partial(run_one, warm_start_from=args.warm_start), sequences), total=len(sequences),
                           desc="walks refined", file=sys.stderr))
     summary = {**summarise(walks), "m_gen": summarise(walks[:1]), "seed": args.seed, "warm_start": args.warm_start,

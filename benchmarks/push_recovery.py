@@ -23,12 +23,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import multiprocessing as mp
 import sys
 import time
 
 import numpy as np
 from tqdm import tqdm
+
+from cocomopl.processes import spawn_pool
 
 MODES = ("stabilizer", "recovery")
 _WORKER: dict = {}
@@ -93,7 +94,7 @@ def main() -> int:
     tasks = [{"mode": mode, "force_n": force, "time_s": float(t), "sign": sign, "axis": axis}
              for force in forces for t in times for sign in (1.0, -1.0) for mode in MODES]
     started = time.perf_counter()
-    with mp.get_context("spawn").Pool(args.workers, initializer=_start_worker, initargs=(goal,)) as pool:
+    with spawn_pool(args.workers, _start_worker, (goal,)) as pool:
         rows = list(tqdm(pool.imap(run_push, tasks), total=len(tasks), desc="pushes", file=sys.stderr))
     generation = [r["generation_s"] for row in rows for r in row["replans"]]
     summary = {

@@ -52,7 +52,6 @@ import argparse
 import functools
 import json
 import math
-import multiprocessing as mp
 import sys
 import tempfile
 import time
@@ -69,6 +68,7 @@ from cocomopl.motion import Footstep
 from cocomopl.pipeline import FILTER_WARNING_M
 from cocomopl.planning.footsteps import MAX_LANDINGS, footstep_specs, landings_of, write_landings
 from cocomopl.primitives.model_file import METADATA_KEY, load_model, metadata_robot, model_robot
+from cocomopl.processes import spawn_pool
 from cocomopl.requests import FIRST_SWINGS
 from cocomopl.robot import Robot
 from cocomopl.sim.mujoco_model import CONTACT_TIME_CONSTANT, check_contact_time_constant
@@ -350,7 +350,7 @@ def main() -> int:
                     print(json.dumps(sequence))
             return 0
         started = time.perf_counter()
-        with mp.get_context("spawn").Pool(args.workers) as pool:
+        with spawn_pool(args.workers) as pool:
             results = list(tqdm(pool.imap(functools.partial(run_one, contact_time_constant=args.contact_time_constant_s,
                                                             model=args.model, reference_cutoff_hz=args.reference_cutoff_hz,
                                                             feedforward=args.feedforward, reaim=args.reaim),

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing as mp
 import sys
 import time
 
@@ -49,6 +48,7 @@ from random_walks import length_range_mm, random_lengths
 from tqdm import tqdm
 
 from cocomopl.errors import Error
+from cocomopl.processes import spawn_pool
 from cocomopl.robot import Robot
 from cocomopl.sim.perturbations import Perturbation, Push
 from cocomopl.sim.servos import GROUPS, ServoSettings
@@ -225,7 +225,7 @@ def main() -> int:
     scale = Robot(args.robot).scale  # TALOS's: 1 exactly, so its draws are as they were
     tasks = tasks_for(classes, args.trials, args.combined_trials, args.seed, scale)
     pushes = push_tasks(walks["M_gen"].duration, args.push_phases, scale.mass) if args.push_phases else []
-    with mp.get_context("spawn").Pool(args.workers, initializer=_start_worker, initargs=(walks,)) as pool:
+    with spawn_pool(args.workers, _start_worker, (walks,)) as pool:
         results = list(tqdm(pool.imap_unordered(run_trial, tasks + pushes), total=len(tasks) + len(pushes),
                             desc="rollouts", file=sys.stderr))
     push_rows = [r for r in results if "force_n" in r]

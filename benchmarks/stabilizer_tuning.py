@@ -21,12 +21,13 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
-import multiprocessing as mp
 import sys
 import time
 
 import numpy as np
 from tqdm import tqdm
+
+from cocomopl.processes import spawn_pool
 
 # Tuning sequences (mm): transitions of 50 mm, all in the bundled dataset, so M_opt-style OC
 # walks need no new OCP; none is M_gen or M_opt.
@@ -141,7 +142,7 @@ def main() -> int:
         sequences["reported"] = plans(tuple(1000 * x for x in M_GEN), tuple(1000 * x for x in M_OPT))
     jobs = [(name, generator, walks, damping, gain) for name, walks in sequences.items() for generator in walks
             for damping, gain in itertools.product(ANKLE_DAMPING, DCM_GAIN)]
-    with mp.get_context("spawn").Pool(args.workers) as pool:
+    with spawn_pool(args.workers) as pool:
         rows = list(tqdm(pool.imap_unordered(run_one, jobs), total=len(jobs), desc="simulations", file=sys.stderr))
     tuning = grid_table([r for r in rows if r["sequence"] != "reported"])
     chosen = tuned(tuning)

@@ -9,9 +9,12 @@ second of its parent.
 
 from __future__ import annotations
 
+import multiprocessing
+import multiprocessing.pool
 import os
 import threading
 import time
+from collections.abc import Callable
 
 POLL_S = 1.0  # how often a worker looks for its parent
 
@@ -28,4 +31,18 @@ def exit_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="parent watch", daemon=True).start()
 
 
-__all__ = ["POLL_S", "exit_with_parent"]
+def spawn_pool(processes: int, initializer: Callable | None = None, initargs: tuple = ()) -> multiprocessing.pool.Pool:
+    """A pool of ``processes`` spawned workers (not forked: a fork of a process that runs
+    threads can deadlock) that end with this process (:func:`exit_with_parent`), each
+    running ``initializer(*initargs)`` first if given."""
+    return multiprocessing.get_context("spawn").Pool(processes, initializer=_start_worker,
+                                                     initargs=(os.getpid(), initializer, initargs))
+
+
+def _start_worker(parent: int, initializer: Callable | None, initargs: tuple) -> None:
+    exit_with_parent(parent)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+__all__ = ["POLL_S", "exit_with_parent", "spawn_pool"]

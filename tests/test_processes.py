@@ -7,9 +7,11 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 # a parent that starts one worker (as the dataset and the training start theirs), prints
 # the worker's pid once it runs a long job, and waits
-PARENT = """
+EXECUTOR = """
 import concurrent.futures as cf, multiprocessing, os, time
 from cocomopl.processes import exit_with_parent
 
@@ -18,6 +20,25 @@ if __name__ == "__main__":
                                   initializer=exit_with_parent, initargs=(os.getpid(),))
     print(pool.submit(os.getpid).result(), flush=True)
     pool.submit(time.sleep, 120)
+    time.sleep(120)
+"""
+
+# the same with the benchmarks' pool, whose workers run an initializer of their own first
+POOL = """
+import os, time
+from cocomopl.processes import spawn_pool
+
+def mark(value):
+    os.environ["COCOMOPL_TEST_STARTED"] = value
+
+def marked():
+    return os.environ.get("COCOMOPL_TEST_STARTED")
+
+if __name__ == "__main__":
+    pool = spawn_pool(1, mark, ("yes",))
+    assert pool.apply(marked) == "yes"
+    print(pool.apply(os.getpid), flush=True)
+    pool.apply_async(time.sleep, (120,))
     time.sleep(120)
 """
 
@@ -31,9 +52,10 @@ def _running(pid: int) -> bool:
     return "Z" not in state.split()[1]  # a zombie has ended; only its parent's reaping is left
 
 
-def test_a_worker_ends_when_its_parent_is_killed(tmp_path):
+@pytest.mark.parametrize("parent_script", [EXECUTOR, POOL], ids=["executor", "pool"])
+def test_a_worker_ends_when_its_parent_is_killed(tmp_path, parent_script):
     script = tmp_path / "parent.py"
-    script.write_text(PARENT)
+    script.write_text(parent_script)
     parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
     worker = None
     try:
