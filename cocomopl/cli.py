@@ -51,7 +51,8 @@ def cmd_dataset_generate(args):
     replacing(args, args.out, inputs=[args.robot, *args.reuse])
     return generate_dataset(args.out, lengths, extra, robot=args.robot, dt=args.dt, max_iterations=args.max_iterations,
                             load_transfer_weight=args.load_transfer_weight, min_knee_flexion=args.min_knee_flexion_rad,
-                            upper_velocity_weight=args.upper_velocity_weight, workers=args.workers, scheduler=args.scheduler, command=args.command_line, progress=True,
+                            upper_velocity_weight=args.upper_velocity_weight, workers=args.workers,
+                            scheduler=args.scheduler, command=args.command_line, progress=True,
                             record=record, continuation=record is None, reuse=args.reuse)
 
 
