@@ -228,7 +228,6 @@ def _when(plan: list, side: str, phase: int) -> str:
     return "end" if any(air == side for _, air in plan[:phase]) else "start"
 
 
-
 def sequence_specs(lengths: Sequence[float], first_swing: str = "left") -> list[StepSpec]:
     """Step specs for step lengths (m): a start, then cyclic or transition steps, then a stop.
 
@@ -267,7 +266,6 @@ def parse_sequence_mm(text: str) -> list[float]:
     if len(out) < 2:
         raise Error(f"a walk needs at least two steps (a start and a stop), got {len(out)}")
     return out
-
 
 
 MAX_LENGTH_M = 0.80  # beyond any human-sized humanoid's stride; the IK rejects earlier

@@ -48,10 +48,6 @@ REST_WEIGHT = 1e3
 FILTER_HEIGHT_WEIGHT = 1e-3
 
 
-
-
-
-
 def swing_targets(t: np.ndarray, placements: list[list[pin.SE3]], ground: list[list[pin.SE3 | None]]) -> list[list[pin.SE3]]:
     """Sole targets (n, 2): the ground placement in contact; in the air the sole's own path,
     bent smoothly so it leaves from where it stood and lands where it is planned to.

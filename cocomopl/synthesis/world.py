@@ -30,10 +30,6 @@ REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
 ZMP_INSET = 1e-4  # m inside the support polygon, where a reference ZMP outside it is moved: a 5 ms table stays inside
 
 
-
-
-
-
 def _segments(step: PredictedStep) -> list[tuple[int, int]]:
     """(first, last) phases of each impact-free part: a touchdown ends every single support."""
     plan, out, first = phase_plan(step.spec), [], 0
@@ -107,8 +103,6 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
         s = (t[rows] - edges[p]) / (edges[p + 1] - edges[p])
         out[rows] = (1 - s)[:, None] * before + s[:, None] * after
     return out
-
-
 
 
 def zmp_in_support(robot: Robot, zmp: np.ndarray, ground: list[list]) -> np.ndarray:
@@ -217,8 +211,6 @@ def place_steps(robot: Robot, steps: list[PredictedStep], *, dt: float = 0.005,
     motion.plan = PlanRecord(dynamics_filter_zmp_error_m=filter_errors, dynamics_filter_kept_error_m=filter_errors[kept],
                              upper_body_limits=upper_body, plan_zmp_error_m=rms_zmp_error(multibody, zmp, impacts))
     return motion
-
-
 
 
 def replace_stretch(robot: Robot, motion: Motion, steps: list[PredictedStep], *, step: int,
