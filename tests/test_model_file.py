@@ -16,7 +16,7 @@ from cocomopl.data import BUNDLED_DATASET, model_path
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
 from cocomopl.primitives import model_file
-from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import (
     FORMAT_VERSION,
     REQUIRED,
@@ -398,17 +398,22 @@ def test_the_reading_check_predicts_start_steps_from_rest_as_a_walk_does(monkeyp
     """A start step's start has almost no variance (every one begins in the same posture):
     conditioned on another step's end, which no walk does, a model fitted on three lengths
     predicted 103 rad and was refused although it explains 99.99 % of its data."""
-    calls = []
-    original = MovementPrimitives.predict
+    predicted, conditioned = [], []
+    predict_many, conditioned_on = MovementPrimitives.predict_many, PredictedStep.conditioned_on
 
-    def recording(self, spec, start=None):
-        calls.append((spec.kind, start is None))
-        return original(self, spec, start)
+    def recording_predictions(self, specs):
+        predicted.extend(spec.kind for spec in specs)
+        return predict_many(self, specs)
 
-    monkeypatch.setattr(MovementPrimitives, "predict", recording)
+    def recording_conditions(self, start):
+        conditioned.append(self.spec.kind)
+        return conditioned_on(self, start)
+
+    monkeypatch.setattr(MovementPrimitives, "predict_many", recording_predictions)
+    monkeypatch.setattr(PredictedStep, "conditioned_on", recording_conditions)
     load_model(model_path(None))
-    assert ("start", False) not in calls and ("start", True) in calls
-    assert {kind for kind, unconditioned in calls if not unconditioned} == {"cyclic", "transition", "stop"}
+    assert set(predicted) == {"start", "cyclic", "transition", "stop"}
+    assert set(conditioned) == {"cyclic", "transition", "stop"}
 
 
 def test_a_model_of_a_robot_of_ones_own_carries_its_description(model, tmp_path):

@@ -597,19 +597,16 @@ def _check_predictions(model: MovementPrimitives, types: list[str], counts: np.n
     almost no variance, and conditioning it on another step's end, which no walk does, can
     be off by orders of magnitude in a correctly fitted model.
     """
-    lengths = model.lengths_
-    for g, t in enumerate(types):
-        if not _trajectories()[t].first:  # predicted with the first part
-            continue
-        for z in lengths[g, : counts[g]]:
-            spec = with_step_lengths(_trajectories()[t].spec, z)
-            # what overflows is refused by the checks; a step's values are computed when first read
-            with np.errstate(all="ignore"):
-                step = model.predict(spec)
-                if spec.kind != "start":
-                    _check_predicted(step, model.signal_names)
-                    step = model.predict(spec, step.values[0])
+    specs = [with_step_lengths(_trajectories()[t].spec, z)
+             for g, t in enumerate(types) if _trajectories()[t].first  # predicted with the first part
+             for z in model.lengths_[g, : counts[g]]]
+    # what overflows is refused by the checks; a step's values are computed when first read
+    with np.errstate(all="ignore"):
+        for spec, step in zip(specs, model.predict_many(specs)):  # together: a few products, not one per step
+            if spec.kind != "start":
                 _check_predicted(step, model.signal_names)
+                step = step.conditioned_on(step.values[0])
+            _check_predicted(step, model.signal_names)
 
 
 def _check_predicted(step: PredictedStep, signal_names: list[str]) -> None:
