@@ -199,15 +199,11 @@ def load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
     """The unreduced model, the reference posture named by the description (or None) and,
     if ``geometry`` is given, the URDF's visual or collision geometry model (else None)."""
     if "example_robot_data" in desc:
-        import example_robot_data
-
-        try:
-            wrapper = example_robot_data.load(desc["example_robot_data"])
-        except Exception as exc:  # the loader raises bare ValueError/KeyError for unknown names
-            raise Error(f"example-robot-data cannot load {desc['example_robot_data']!r}: {exc}") from None
-        model = wrapper.model
+        wrapper = _example_robot(desc["example_robot_data"])
+        model = pin.Model(wrapper.model)  # a copy: a robot adds its sole frames and evens out its inertias
         shapes = {pin.GeometryType.VISUAL: wrapper.visual_model, pin.GeometryType.COLLISION: wrapper.collision_model,
                   None: None}[geometry]
+        shapes = None if shapes is None else shapes.copy()
     elif "urdf" in desc:
         urdf = Path(desc["urdf"])
         if not urdf.exists():
@@ -234,6 +230,18 @@ def load_full_model(desc: dict, geometry: pin.GeometryType | None = None):
         except (KeyError, IndexError):
             raise Error(f"robot {desc['name']!r} has no reference posture {posture_name!r}") from None
     return model, q_ref, shapes
+
+
+@functools.cache
+def _example_robot(name: str):
+    """example-robot-data's robot ``name``, loaded once per process: parsing a URDF and its
+    meshes takes a second or two, and commands and tests build the same robot many times."""
+    import example_robot_data
+
+    try:
+        return example_robot_data.load(name)
+    except Exception as exc:  # the loader raises bare ValueError/KeyError for unknown names
+        raise Error(f"example-robot-data cannot load {name!r}: {exc}") from None
 
 
 def _locked_joint_ids(model: pin.Model, desc: dict) -> list[int]:
