@@ -1,6 +1,7 @@
-"""The suite's own rules, read from its source: tests use the package's public names only, share
-helpers through conftest.py and not through each other, and assert properties, not speeds
-(benchmarks/ measures those) or the outcome of a race against a sleep."""
+"""The suite's own rules, read from its source and its collected tests: tests use the
+package's public names only, share helpers through conftest.py and not through each other,
+assert properties, not speeds (benchmarks/ measures those) or the outcome of a race against
+a sleep, and a test that needs a dataset solved for the suite is out of the fast loop."""
 
 import ast
 from collections.abc import Iterator
@@ -135,3 +136,12 @@ def test_polling_with_a_deadline_and_public_names_pass(tmp_path):
         "assert done()\nassert barrier_qp.__doc__\n"
     )
     assert list(offences(path)) == []
+
+
+def test_a_test_that_needs_a_shared_dataset_is_marked_slow(request):
+    """The shared datasets (conftest.py) take 40-90 s to solve: a test that needs one is out
+    of the fast loop, ``-m 'not slow'``."""
+    solving = {"small_dataset", "turning_dataset"}
+    unmarked = [item.nodeid for item in request.session.items
+                if solving & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("slow") is None]
+    assert unmarked == []
