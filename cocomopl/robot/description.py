@@ -742,8 +742,8 @@ class Robot:
     def visual_model(self) -> pin.GeometryModel:
         """The URDF's visual meshes, attached to the joints of the reduced model.
 
-        Loaded on first use (reading the meshes takes about a second) and shared by later
-        calls: do not modify it."""
+        Loaded on first use (reading the meshes takes about a second, once per process) and
+        shared by later calls: do not modify it."""
         if self._visual is None:
             full, q_full_ref, visual = load_full_model(self.description, pin.GeometryType.VISUAL)
             if q_full_ref is None:
