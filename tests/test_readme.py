@@ -4,7 +4,8 @@ Every line that starts with ``cocomopl`` in a ```bash block of README.md runs, i
 one fresh folder (later lines read the files earlier ones wrote), and must exit 0; a line
 with ``--json`` runs in a new interpreter, as a user runs it, and must print one JSON object
 on its standard output; the other lines run through the command's entry point in the test's
-process (``conftest.run_cli``), and the ```python block in a new interpreter.  The examples that take minutes are shrunk or skipped:
+process (``conftest.run_cli``), and the ```python block in a new interpreter.  The examples
+that take minutes are shrunk or skipped:
 
 * ``cocomopl dataset generate`` is skipped: the bundled dataset, which the same command made
   with the default lengths, is copied to its ``--out`` for the lines after it.  The command
