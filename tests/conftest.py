@@ -35,7 +35,25 @@ def robot() -> Robot:
     return Robot("talos")
 
 
-@pytest.fixture(scope="session")
+# the fixtures that solve a dataset for the whole run (40-90 s), by name: every test that
+# needs one, directly or through another fixture, is marked slow and so left out of the fast loop
+SHARED_DATASETS: set[str] = set()
+
+
+def shared_dataset(fixture):
+    """A session fixture that solves a dataset for the whole run (:data:`SHARED_DATASETS`)."""
+    SHARED_DATASETS.add(fixture.__name__)
+    return pytest.fixture(scope="session")(fixture)
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` deselects by mark
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if SHARED_DATASETS & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
+
+
+@shared_dataset
 def small_dataset(tmp_path_factory) -> Path:
     """The OCPs of one length on coarse knots, solved once for all test processes."""
     return _shared_dataset(tmp_path_factory, "small-dataset", (SMALL_LENGTH,))
@@ -45,7 +63,7 @@ def small_dataset(tmp_path_factory) -> Path:
 TURNED = Footstep(SMALL_LENGTH, 0.0, math.radians(15))
 
 
-@pytest.fixture(scope="session")
+@shared_dataset
 def turning_dataset(tmp_path_factory) -> Path:
     """The cyclic, start and stop OCPs of the footstep :data:`TURNED`, on coarse knots,
     solved once for all test processes (a steady turn's two footsteps and the transitions

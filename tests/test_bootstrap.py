@@ -45,7 +45,6 @@ def test_a_folder_holding_another_robots_dataset_is_refused(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
-@pytest.mark.slow  # solves the small dataset (40 s), once for every test
 def test_a_dataset_of_other_lengths_is_refused_not_replaced(tmp_path, small_dataset):
     shutil.copy(small_dataset, tmp_path / "dataset.h5")
     before = (tmp_path / "dataset.h5").read_bytes()
@@ -54,7 +53,6 @@ def test_a_dataset_of_other_lengths_is_refused_not_replaced(tmp_path, small_data
     assert (tmp_path / "dataset.h5").read_bytes() == before
 
 
-@pytest.mark.slow
 def test_the_projection_holds_the_measured_sweeps_and_shares_the_transitions(small_dataset):
     from cocomopl.motion_file import file_attrs, open_checked
 

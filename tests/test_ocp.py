@@ -29,27 +29,23 @@ def motions(small_dataset):
     return read_motions(small_dataset)[0]
 
 
-@pytest.mark.slow  # solves the small dataset (40 s), once for every test
 def test_dataset_holds_solved_and_mirrored_steps(motions):
     names = set(motions)
     for kind in ("cyclic_200", "start_200", "stop_200"):
         assert {f"{kind}_L", f"{kind}_R"} <= names
 
 
-@pytest.mark.slow
 def test_every_motion_obeys_inverse_dynamics(robot, motions):
     for name, m in motions.items():
         report = check_motion(robot, m, SMALL.friction)
         assert report["inverse_dynamics_residual"] < TOLERANCES["inverse_dynamics_residual"], name
 
 
-@pytest.mark.slow
 def test_zmp_stays_in_the_support_polygon(robot, motions):
     for name, m in motions.items():
         assert check_motion(robot, m, SMALL.friction)["zmp_margin"] >= 0.0, name
 
 
-@pytest.mark.slow
 def test_a_diverged_motion_fails_the_zmp_check_instead_of_raising(robot, motions):
     """A solve that diverges throws the robot kilometres away, where the soles' hull loses
     all precision: its ZMP margin is -inf (failed), so the step is rejected, not crashed on."""
@@ -60,7 +56,6 @@ def test_a_diverged_motion_fails_the_zmp_check_instead_of_raising(robot, motions
     assert "zmp_margin" in violations(report, TOLERANCES)
 
 
-@pytest.mark.slow
 def test_limits_friction_and_unilateral_forces(robot, motions):
     for name, m in motions.items():
         r = check_motion(robot, m, SMALL.friction)
@@ -72,7 +67,6 @@ def test_limits_friction_and_unilateral_forces(robot, motions):
         assert r["stance_foot_slip"] <= TOLERANCES["stance_foot_slip"], name
 
 
-@pytest.mark.slow
 def test_a_sole_pulling_by_more_than_the_force_resolution_fails_and_numerical_zeros_pass(robot, motions):
     """A contact force no larger than ``FORCE_RESOLUTION`` is zero (an unloading sole carries
     a few mN of either sign at a penalised solver's optimum); a pull or a slip beyond it fails."""
@@ -87,7 +81,6 @@ def test_a_sole_pulling_by_more_than_the_force_resolution_fails_and_numerical_ze
         assert [name for name in ("min_normal_force", "friction_ratio") if name in violations(report, TOLERANCES)] == failing
 
 
-@pytest.mark.slow
 def test_swing_soles_keep_to_their_lanes(robot, motions):
     """Each sole's lateral position stays within 2 cm of where it starts: a swinging sole
     passes beside the stance sole and lands in its lane, the closing step of a stop too
@@ -98,7 +91,6 @@ def test_swing_soles_keep_to_their_lanes(robot, motions):
         assert np.abs(y - y[0]).max() < 0.02, name
 
 
-@pytest.mark.slow
 def test_soles_land_at_rest(robot, motions):
     """Every touchdown of every step lands at under 1 cm/s: the impulse model would absorb
     any landing speed for free, a stiff position-controlled robot does not (docs/method.md,
@@ -109,7 +101,6 @@ def test_soles_land_at_rest(robot, motions):
         assert speeds.max() < 0.01, (name, speeds)
 
 
-@pytest.mark.slow
 def test_mirror_of_mirror_is_identity_and_mirrored_motion_is_dynamic(robot, motions):
     m = motions["cyclic_200_L"]
     mm = mirror_motion(robot, mirror_motion(robot, m))
@@ -124,7 +115,6 @@ def test_mirror_of_mirror_is_identity_and_mirrored_motion_is_dynamic(robot, moti
     assert np.abs(res).max() < 1e-6
 
 
-@pytest.mark.slow
 def test_consecutive_steps_join(robot, motions):
     by_spec = {m.steps[0]: m for m in motions.values()}
     pairs = [(s, n) for s in by_spec for n in successors(s, list(by_spec))]
@@ -133,13 +123,11 @@ def test_consecutive_steps_join(robot, motions):
         assert step_mismatch(robot, by_spec[spec], by_spec[nxt]) < TOLERANCES["continuity"], (spec, nxt)
 
 
-@pytest.mark.slow
 def test_cyclic_step_ends_as_its_own_mirror_image(robot, motions):
     m = motions["cyclic_200_L"]
     assert step_mismatch(robot, m, motions["cyclic_200_R"]) < TOLERANCES["continuity"]
 
 
-@pytest.mark.slow
 def test_training_signals_are_36_and_all_vary(robot, motions):
     sig = training_signals(robot, motions["cyclic_200_L"])
     assert sig["values"].shape[1] == 36
@@ -340,7 +328,6 @@ def _resolved_cyclic(robot, motions, **changes):
                      settings)
 
 
-@pytest.mark.slow
 def test_torque_rate_term_smooths_torques(robot, motions):
     """The paper's torque-rate control, as a penalty: torque jumps between knots shrink."""
     jumps = {}
@@ -350,7 +337,6 @@ def test_torque_rate_term_smooths_torques(robot, motions):
     assert jumps[5e-4] < 0.7 * jumps[0.0], jumps
 
 
-@pytest.mark.slow
 def test_min_knee_flexion_bends_the_knees(robot, motions):
     """The small cyclic step stretches a knee to 0.10 rad; asked for a 0.3 rad bend, the
     least knee angle over its knots rises by more than 0.1 rad.  (The limit is a penalty
@@ -406,7 +392,6 @@ def test_load_shares_hand_the_weight_over_linearly():
     assert load_shares(phases[3:], 0, from_rest=False) == transfer
 
 
-@pytest.mark.slow
 def test_load_transfer_term_hands_the_weight_over_linearly(robot, motions):
     """Without the term, rigid contacts let the optimiser share the weight in double support
     as it likes (and drop a sole's load in a jump at lift-off); with it, the soles' vertical
@@ -482,7 +467,6 @@ def test_a_turning_swing_keeps_the_settings_gap_or_the_least_of_its_lift_off_and
     assert swing_gap(robot, ahead, flat_placement(0.0, 0.0, 0.2), settings=settings) is not None  # a turned stance sole
 
 
-@pytest.mark.slow
 def test_a_friction_ratio_on_the_cones_edge_passes_and_beyond_it_fails(robot, motions):
     """A solution on the penalised cone's edge exceeds it by the solver's resolution (1e-6 to
     1e-5 of the ratio) and passes; a sole sliding 1 % beyond it fails."""

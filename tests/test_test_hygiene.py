@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import SHARED_DATASETS
+
 TESTS = Path(__file__).parent
 CLOCKS = {"perf_counter", "perf_counter_ns", "time", "time_ns", "monotonic", "monotonic_ns", "process_time"}
 
@@ -138,23 +140,11 @@ def test_polling_with_a_deadline_and_public_names_pass(tmp_path):
     assert list(offences(path)) == []
 
 
-def shared_dataset_fixtures() -> set[str]:
-    """The fixtures of conftest.py that solve a dataset shared by the test processes: those
-    whose body calls its ``_shared_dataset``."""
-    tree = ast.parse((TESTS / "conftest.py").read_text(encoding="utf-8"))
-    return {node.name for node in tree.body if isinstance(node, ast.FunctionDef)
-            and any("fixture" in ast.unparse(decorator) for decorator in node.decorator_list)
-            and any(isinstance(call, ast.Call) and ast.unparse(call.func) == "_shared_dataset" for call in ast.walk(node))}
-
-
-def test_the_shared_dataset_fixtures_are_found():
-    assert {"small_dataset", "turning_dataset"} <= shared_dataset_fixtures()
-
-
 def test_a_test_that_needs_a_shared_dataset_is_marked_slow(request):
     """The shared datasets (conftest.py) take 40-90 s to solve: a test that needs one (or a
-    fixture built on one) is out of the fast loop, ``-m 'not slow'``."""
-    solving = shared_dataset_fixtures()
+    fixture built on one) is out of the fast loop, ``-m 'not slow'`` (conftest.py marks it)."""
+    assert {"small_dataset", "turning_dataset"} <= SHARED_DATASETS
+    solving = SHARED_DATASETS
     unmarked = [item.nodeid for item in request.session.items
                 if solving & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("slow") is None]
     assert unmarked == []
