@@ -4,10 +4,10 @@ a warm start, steps of the grown dataset kept as they were, and bad input."""
 import numpy as np
 import pytest
 
-from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL
+from cocomopl.data import BUNDLED_DATASET, BUNDLED_MODEL, BUNDLED_OMNI_MODEL
 from cocomopl.errors import Error
 from cocomopl.motion import StepSpec
-from cocomopl.primitives.estimator import SAME_LENGTHS_M2, weight_posterior
+from cocomopl.primitives.estimator import SAME_LENGTHS_M2, VARIANCE_FLOOR, weight_posterior
 from cocomopl.primitives.growth import (
     candidate_lengths,
     check_budget,
@@ -59,12 +59,26 @@ def test_with_nothing_added_the_variance_is_the_models_own(model, spec):
 def test_the_predictions_eigenbasis_variance_is_the_direct_solves(model, spec):
     """Prediction takes ``b^T C b`` in an eigenbasis (``estimator._weight_solves``), at a new
     step and at a trained one, where the nugget counts."""
+    assert_eigenbasis_variance_is_direct(model, spec, atol=1e-8)
+
+
+@pytest.mark.parametrize("spec", [StepSpec("transition", 0.3, 0.1, end_width=0.12, end_turn=-0.3),
+                                  StepSpec("transition", -0.1, 0.25, start_width=-0.03, start_turn=0.2)])
+def test_single_precision_eigenbases_keep_the_variance_within_its_floor(spec):
+    """The step-space model's transitions (278 training steps) keep their eigenbases in single
+    precision: the variance stays within the floor every new step's variance is given."""
+    model = load_model(BUNDLED_OMNI_MODEL).prepare()
+    assert model.type_arrays("transition_left").solves.basis.dtype == np.float32
+    assert_eigenbasis_variance_is_direct(model, spec, atol=VARIANCE_FLOOR)
+
+
+def assert_eigenbasis_variance_is_direct(model, spec, *, atol):
     type_ = model.trajectory_types(f"{spec.kind}_left")[0]
     c = model.type_arrays(type_)
     z = step_lengths(spec, c.lengths.shape[1])
     _, (variance,) = weight_posterior(c, ((c.lengths - z) ** 2).sum(axis=1)[None])
     prior = c.alpha_w
-    np.testing.assert_allclose(np.maximum(variance, 0.0) / prior, direct_weight_variance(model, type_, z) / prior, atol=1e-8)
+    np.testing.assert_allclose(np.maximum(variance, 0.0) / prior, direct_weight_variance(model, type_, z) / prior, atol=atol)
 
 
 def test_adding_a_length_leaves_no_variance_more_anywhere_and_least_there(model):

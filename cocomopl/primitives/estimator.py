@@ -43,6 +43,10 @@ SUPPORT_TOLERANCE = 1e-9  # m: a training step's own distance may round above it
 SIGNAL_GROUPS = ("joints", "zmp", "pelvis")
 CONDITION_RATIO = 1e-6  # start-state noise relative to the predicted start variance: "nearly equal"
 VARIANCE_FLOOR = 1e-6  # relative to the prior: keeps conditioning defined at training points
+# Eigenbases larger than this (in double precision) are kept in single precision: the
+# variance's products then run from memory, at half the traffic, and move a walk's signals by
+# a few microradians; smaller ones stay in cache and in double precision.
+SINGLE_PRECISION_BYTES = 2**20
 SAME_LENGTHS_M2 = 1e-12  # squared length distance (1 um) below which a step has a training step's lengths
 # The estimator's parameters that need a check (:meth:`MovementPrimitives.validate`); model
 # files check their recorded settings with the same rules.
@@ -753,7 +757,9 @@ def _weight_solves(lengths: np.ndarray, gamma: np.ndarray, *, nu: np.ndarray) ->
         block_index[members] = (len(chunk_group) + np.arange(len(members)) // M) * M + np.arange(len(members)) % M
         chunk_group += [g] * -(-len(members) // M)
     spectral = _in_chunks(1.0 / (eigenvalues[gamma_of] + nu[:, None]), block_index, len(chunk_group), M)
-    return WeightSolves(lengths, unique_gamma, basis, np.array(chunk_group), M, block_index, spectral)
+    dtype = np.float32 if basis.nbytes > SINGLE_PRECISION_BYTES else np.float64
+    return WeightSolves(lengths, unique_gamma, basis.astype(dtype), np.array(chunk_group), M, block_index,
+                        spectral.astype(dtype))
 
 
 def weight_posterior(c: TypeArrays, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -784,10 +790,10 @@ def _weight_variance(c: TypeArrays, smooth: np.ndarray, same: np.ndarray) -> np.
     q_j``, ``p = U^T E(z)`` and ``q = U^T [d2 = 0]``.  It depends on the type's inputs and
     the model's hyperparameters only: the same for every type sharing ``c.solves``."""
     s, alpha, nugget = c.solves, c.alpha_w, c.nugget
-    p = smooth @ s.basis
+    p = smooth.astype(s.basis.dtype) @ s.basis
     if not same.any():
         return alpha - alpha * s.per_weight(p**2, s.spectral_blocks)
-    q = same.astype(float) @ s.basis
+    q = same.astype(s.basis.dtype) @ s.basis
     pp, pq, qq = s.per_weight(np.concatenate([p**2, p * q, q**2], axis=1), s.spectral_blocks).reshape(3, len(same), -1)
     return alpha - alpha * pp - 2.0 * nugget * pq - nugget**2 / alpha * qq
 
