@@ -1,13 +1,15 @@
 """Generation and placement per step, straight against omnidirectional, side by side.
 
-M_gen with the bundled straight model, and with the bundled omnidirectional model (or ``--model``) the walk to
-(1.0 m, 0.5 m, 90 deg) and random footstep walks (``--walks`` walks of 12 footsteps, each
-drawn uniformly over the allowed range, as ``random_walks.py --footsteps`` draws them, the
-first swing foot the left; seed ``--seed``): generation (the primitives alone, caches
-built, median of 50 runs; of the random walks, the median over the walks) and placement
-(world placement, dynamics filter, limits, inverse dynamics) per step.
+M_gen with the robot's bundled straight model, and with its bundled omnidirectional model
+(or ``--model``) the walk to (1.0 m, 0.5 m, 90 deg) and random footstep walks (``--walks``
+walks of 12 footsteps, each drawn uniformly over the robot's allowed range, as
+``random_walks.py --footsteps`` draws them, the first swing foot the left; seed ``--seed``):
+generation (the primitives alone, caches built, median of 50 runs; of the random walks, the
+median over the walks) and placement (world placement, dynamics filter, limits, inverse
+dynamics) per step.  The robot is ``--robot`` (a bundled one), else the model's (TALOS for
+the bundled model).
 
-    python benchmarks/omni_speed.py [--walks 10] [--seed 0] [--model MODEL.npz] [--json]
+    python benchmarks/omni_speed.py [--robot g1] [--walks 10] [--seed 0] [--model MODEL.npz] [--json]
 """
 
 import argparse
@@ -19,14 +21,14 @@ import warnings
 
 import numpy as np
 
-from cocomopl.data import BUNDLED_MODEL, BUNDLED_OMNI_MODEL
+from cocomopl.data import model_path
 from cocomopl.dataset.design import allowed_footsteps
 from cocomopl.errors import Error
-from cocomopl.gait import M_GEN, sequence_specs
+from cocomopl.gait import m_gen, sequence_specs
 from cocomopl.motion import Footstep
 from cocomopl.planning.footsteps import footstep_specs
 from cocomopl.planning.goal import plan_to_goal
-from cocomopl.primitives.model_file import load_model
+from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.robot import Robot
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import place_steps
@@ -67,20 +69,25 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--walks", type=int, default=10, help="random footstep walks (default: 10)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first random walk (default: 0)")
-    parser.add_argument("--model", default=str(BUNDLED_OMNI_MODEL), metavar="MODEL.npz",
-                        help="omnidirectional model file (default: the bundled one)")
+    parser.add_argument("--robot", metavar="NAME",
+                        help="a bundled robot whose models are the defaults, talos or g1 (default: the model's robot)")
+    parser.add_argument("--model", metavar="MODEL.npz",
+                        help="omnidirectional model file (default: the robot's bundled one)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.walks < 1:
         parser.exit(2, f"omni_speed.py: error: --walks must be at least 1, got {args.walks}\n")
     warnings.simplefilter("ignore")
     try:
-        omni = load_model(args.model).prepare()
+        omni = load_model(model_path(args.model, omni=True, robot=args.robot)).prepare()
+        robot = model_robot(omni)
+        if args.robot is not None and robot.name != args.robot:
+            raise Error(f"{args.model} is a model of {robot.name}, not of {args.robot}")
+        straight = load_model(model_path(robot=robot.name)).prepare()
     except Error as exc:
         parser.exit(2, f"omni_speed.py: error: {exc}\n")
-    robot = Robot("talos")
     report = {
-        "straight_m_gen": measure(robot, load_model(BUNDLED_MODEL).prepare(), lambda m: sequence_specs(list(M_GEN))),
+        "straight_m_gen": measure(robot, straight, lambda m: sequence_specs(list(m_gen(robot)))),
         "omni_goal_1_0.5_90": measure(robot, omni,
                                       lambda m: plan_to_goal(robot, (1.0, 0.5, math.radians(90)),
                                                              limits=m.footstep_range())),

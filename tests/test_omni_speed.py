@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from cocomopl.data import BUNDLED_OMNI_MODEL
+
 from conftest import assert_one_line_error
 
 pytestmark = pytest.mark.slow  # the benchmark runs in a new process
@@ -32,3 +34,12 @@ def test_no_walks_is_refused():
     result = run("--walks", "0")
     assert_one_line_error(result, "--walks")
     assert result.returncode == 2
+
+
+@pytest.mark.parametrize("args, words", [(["--robot", "nobody"], ["nobody", "no bundled"]),
+                                         (["--robot", "g1", "--model", str(BUNDLED_OMNI_MODEL)],
+                                          ["talos", "not of g1"])])
+def test_a_robot_without_models_or_not_the_models_is_refused(args, words):
+    result = run(*args, "--json")
+    assert_one_line_error(result, *words)
+    assert result.returncode == 2 and result.stdout == ""
