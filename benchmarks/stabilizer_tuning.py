@@ -13,7 +13,13 @@ than ``SIGNIFICANT`` x weight: the three sequences rank settings within it diffe
 the same grid also runs on the reported walks (M_gen, M_opt and their Kajita walk), to show
 how sensitive the figures of ``cocomopl reproduce`` are to the gains; nothing is tuned on them.
 
-    python benchmarks/stabilizer_tuning.py [--reported] [--workers 2] [--json]
+``--robot`` tunes for another bundled robot on its own models and dataset: the sequences'
+lengths are TALOS's scaled to the robot (``Scale.length_m``, which gives its dataset's lengths),
+the grid's ankle damping D is TALOS's scaled by the robot's torque ratio as the stabilizer
+scales it (``sim.stabilizer.robot_gains``; the tables keep TALOS's values), and every walk runs
+with the robot's other defaults (G1's torque feedforward).
+
+    python benchmarks/stabilizer_tuning.py [--robot g1] [--reported] [--workers 2] [--json]
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ import itertools
 import json
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 from tqdm import tqdm
@@ -43,8 +50,13 @@ FIGURES = ("fell", "peak_force_over_weight", "force_variation_over_weight", "tot
            "max_force_rate", "mean_torque")
 
 
-def plans(lengths_mm: tuple, opt_lengths_mm: tuple | None = None) -> dict:
-    """The MP, OC and Kajita plans of one sequence."""
+def scaled_mm(robot, lengths_mm: tuple) -> tuple[int, ...]:
+    """TALOS's step lengths ``lengths_mm`` (mm) scaled to ``robot`` (mm)."""
+    return tuple(round(1000 * robot.scale.length_m(x / 1000)) for x in lengths_mm)
+
+
+def plans(robot: str, lengths_mm: tuple, opt_lengths_mm: tuple | None = None) -> dict:
+    """The MP, OC and Kajita plans of one sequence of the bundled ``robot``."""
     from cocomopl.data import dataset_path
     from cocomopl.gait import sequence_specs
     from cocomopl.motion_file import read_motions
@@ -52,8 +64,8 @@ def plans(lengths_mm: tuple, opt_lengths_mm: tuple | None = None) -> dict:
     from cocomopl.pipeline import generate_walk, kajita_for
     from cocomopl.requests import StraightSteps, WalkRequest
 
-    dataset, attrs = read_motions(dataset_path(), dataset=True)
-    walk = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in lengths_mm])))
+    dataset, attrs = read_motions(dataset_path(robot=robot), dataset=True)
+    walk = generate_walk(WalkRequest(StraightSteps([x / 1000 for x in lengths_mm]), robot=robot))
     specs = sequence_specs([x / 1000 for x in (opt_lengths_mm or lengths_mm)])
     oc = solve_sequence(walk.robot, specs, dataset, settings=attrs["settings"])
     return {"MP": walk.motion, "OC": oc, "Kajita": kajita_for(walk)}
@@ -65,13 +77,14 @@ def run_one(job: tuple) -> dict:
     from cocomopl.analysis.comparison import common_window
     from cocomopl.pipeline import simulate_compared
     from cocomopl.robot import Robot
-    from cocomopl.sim.stabilizer import StabilizerGains
+    from cocomopl.sim.stabilizer import robot_gains
 
     sequence, generator, walks, damping, gain = job
-    _, figures, _ = simulate_compared(
-        Robot(walks[generator].robot), {generator: walks[generator]},
-        gains={generator: StabilizerGains(ankle_damping=damping, dcm_gain=gain)}, window=common_window(walks),
-    )
+    robot = Robot(walks[generator].robot)
+    gains = replace(robot_gains(robot, walks[generator].producer), ankle_damping=damping * robot.scale.torque,
+                    dcm_gain=gain)
+    _, figures, _ = simulate_compared(robot, {generator: walks[generator]}, gains={generator: gains},
+                                      window=common_window(walks))
     return {"sequence": sequence, "generator": generator, "ankle_damping": damping, "dcm_gain": gain,
             **{k: figures[generator][k] for k in FIGURES}}
 
@@ -128,25 +141,39 @@ def print_table(title: str, table: list[dict], chosen: dict) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="talos", metavar="NAME",
+                        help="a bundled robot, talos or g1, tuned on its own models and dataset (default: %(default)s)")
     parser.add_argument("--reported", action="store_true", help="also run the grid on M_gen, M_opt and their Kajita walk")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.workers < 1:
         parser.error(f"--workers {args.workers} must be at least 1")
-    from cocomopl.gait import M_GEN, M_OPT
+    from cocomopl.data import dataset_path, model_path
+    from cocomopl.errors import Error
+    from cocomopl.gait import m_gen, m_opt
+    from cocomopl.robot import Robot
 
+    try:
+        robot = Robot(args.robot)
+        dataset_path(robot=args.robot)  # the robot's bundled dataset and model, or a one-line error
+        model_path(robot=args.robot)
+    except Error as exc:
+        parser.exit(2, f"stabilizer_tuning.py: error: {exc}\n")
     started = time.perf_counter()
-    sequences = {name: plans(lengths) for name, lengths in tqdm(TUNING.items(), desc="plans", file=sys.stderr)}
+    lengths = {name: scaled_mm(robot, mm) for name, mm in TUNING.items()}
+    sequences = {name: plans(args.robot, mm) for name, mm in tqdm(lengths.items(), desc="plans", file=sys.stderr)}
     if args.reported:
-        sequences["reported"] = plans(tuple(1000 * x for x in M_GEN), tuple(1000 * x for x in M_OPT))
+        sequences["reported"] = plans(args.robot, tuple(1000 * x for x in m_gen(robot)),
+                                      tuple(1000 * x for x in m_opt(robot)))
     jobs = [(name, generator, walks, damping, gain) for name, walks in sequences.items() for generator in walks
             for damping, gain in itertools.product(ANKLE_DAMPING, DCM_GAIN)]
     with spawn_pool(args.workers) as pool:
         rows = list(tqdm(pool.imap_unordered(run_one, jobs), total=len(jobs), desc="simulations", file=sys.stderr))
     tuning = grid_table([r for r in rows if r["sequence"] != "reported"])
     chosen = tuned(tuning)
-    summary = {"tuning_sequences_mm": TUNING, "significant_peak_change": SIGNIFICANT,
+    summary = {"robot": args.robot, "tuning_sequences_mm": lengths, "ankle_damping_scale": robot.scale.torque,
+               "significant_peak_change": SIGNIFICANT,
                "objective": "no fall, then the lowest mean peak force over weight",
                "tuned": chosen, "tuning": tuning,
                "reported": grid_table([r for r in rows if r["sequence"] == "reported"]),
@@ -154,7 +181,9 @@ def main() -> int:
     if args.json:
         print(json.dumps(summary))
     else:
-        print_table("tuning sequences (means over " + ", ".join(TUNING) + "):", tuning, chosen)
+        sequences_text = ", ".join(f"{name} {min(mm)}-{max(mm)} mm" for name, mm in lengths.items())
+        print_table(f"{args.robot}, tuning sequences (means over {sequences_text}; D is TALOS's, times "
+                    f"{robot.scale.torque:g} on the robot):", tuning, chosen)
         if args.reported:
             print_table("reported walks (M_gen, M_opt and their Kajita walk), sensitivity only:", summary["reported"], chosen)
         for generator, c in chosen.items():
