@@ -29,6 +29,11 @@ def model():
     return load_model(BUNDLED_MODEL).prepare()
 
 
+@pytest.fixture(scope="module")
+def omni_model():
+    return load_model(BUNDLED_OMNI_MODEL).prepare()
+
+
 def direct_weight_variance(model, type_, z):
     """The weight GPs' posterior variance (before the floor), by dense solves of the model's
     weight kernels: ``alpha - b^T C b`` with ``C = (alpha (E + eta I) + I / c)^-1``."""
@@ -64,12 +69,11 @@ def test_the_predictions_eigenbasis_variance_is_the_direct_solves(model, spec):
 
 @pytest.mark.parametrize("spec", [StepSpec("transition", 0.3, 0.1, end_width=0.12, end_turn=-0.3),
                                   StepSpec("transition", -0.1, 0.25, start_width=-0.03, start_turn=0.2)])
-def test_single_precision_eigenbases_keep_the_variance_within_its_floor(spec):
+def test_single_precision_eigenbases_keep_the_variance_within_its_floor(omni_model, spec):
     """The step-space model's transitions (278 training steps) keep their eigenbases in single
     precision: the variance stays within the floor every new step's variance is given."""
-    model = load_model(BUNDLED_OMNI_MODEL).prepare()
-    assert model.type_arrays("transition_left").solves.basis.dtype == np.float32
-    assert_eigenbasis_variance_is_direct(model, spec, atol=VARIANCE_FLOOR)
+    assert omni_model.type_arrays("transition_left").solves.basis.dtype == np.float32
+    assert_eigenbasis_variance_is_direct(omni_model, spec, atol=VARIANCE_FLOOR)
 
 
 def assert_eigenbasis_variance_is_direct(model, spec, *, atol):
