@@ -111,18 +111,35 @@ def inverse_dynamics_with_contacts(
         v[first] = v[first + 1] if first == 0 else 0.5 * (v[first - 1] + v[first + 1])
         for k in range(first, last):
             a = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
-            rhs = pin.rnea(model, data, q[k], v[k], a)
-            pin.computeJointJacobians(model, data, q[k])
-            pin.updateFramePlacements(model, data)
-            sides = [j for j in range(2) if contact[k, j]]
-            J = np.vstack(
-                [pin.getFrameJacobian(model, data, robot.foot_frames[SIDES[j]], pin.LOCAL_WORLD_ALIGNED) for j in sides]
-            )
-            f = np.linalg.lstsq(J[:, :6].T, rhs[:6], rcond=None)[0]
-            tau[k] = rhs[6:] - J[:, 6:].T @ f
-            wrenches[k, sides] = f.reshape(len(sides), 6)
+            tau[k], wrenches[k] = contact_inverse_dynamics(robot, data, q[k], v[k], a, contact[k])
         tau[last], wrenches[last] = tau[last - 1], wrenches[last - 1]
     return v, tau, wrenches
+
+
+def contact_inverse_dynamics(robot: Robot, data: pin.Data, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                             contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Joint torques (nu,) and contact wrenches (2, 6) that realise acceleration ``a`` at
+    ``(q, v)`` with the soles in ``contact`` (2,) bearing the base's rows of inverse dynamics,
+    the least-norm split in double support (:func:`inverse_dynamics_with_contacts`)."""
+    model = robot.model
+    rhs = pin.rnea(model, data, q, v, a)
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    sides = [j for j in range(2) if contact[j]]
+    J = np.vstack([pin.getFrameJacobian(model, data, robot.foot_frames[SIDES[j]], pin.LOCAL_WORLD_ALIGNED) for j in sides])
+    f = np.linalg.lstsq(J[:, :6].T, rhs[:6], rcond=None)[0]
+    wrenches = np.zeros((2, 6))
+    wrenches[sides] = f.reshape(len(sides), 6)
+    return rhs[6:] - J[:, 6:].T @ f, wrenches
+
+
+def total_wrench_zmp(robot: Robot, data: pin.Data, q: np.ndarray, v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """The ZMP (x, y) on the ground of the whole contact wrench that ``(q, v, a)`` needs: the
+    floating base's rows of inverse dynamics, however the soles share them."""
+    tau = pin.rnea(robot.model, data, q, v, a)
+    base = robot.model.jointPlacements[1] * pin.XYZQUATToSE3(q[:7])  # RNEA leaves data.oMi as it was
+    wrench = base.act(pin.Force(tau[:6]))  # about the world origin, world axes
+    return np.array([-wrench.angular[1], wrench.angular[0]]) / wrench.linear[2]
 
 
 def kinematic_motion(

@@ -17,7 +17,7 @@ PACKAGE = Path(cocomopl.__file__).parent
 ROOT = PACKAGE.parent
 CORE = {"cocomopl", "errors", "motion", "motion_file", "validation", "provenance", "processes", "robot", "gait", "kinematics", "dynamics",
         "analysis", "data", "planning"}
-STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "requests", "results", "pipeline",
+STAGES = ["ocp", "dataset", "primitives", "synthesis", "sim", "baselines", "export", "requests", "online", "results", "pipeline",
           "jobs", "bootstrap", "options", "cli", "__main__"]
 
 

@@ -9,6 +9,8 @@ over a preview horizon; all its gains follow from one discrete algebraic Riccati
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
@@ -92,18 +94,33 @@ class PreviewController:
         zmp_ref = np.asarray(zmp_ref, dtype=float)
         n, horizon = len(zmp_ref), len(self.gain_preview)
         padded = np.vstack([zmp_ref, np.repeat(zmp_ref[-1:], horizon, axis=0)])
-        x = np.zeros((3, 2))
-        x[0] = zmp_ref[0] if com_start is None else com_start
-        integral = np.zeros(2)
+        state = self.at_rest(zmp_ref[0] if com_start is None else com_start)
         states = np.empty((n, 3, 2))
         for k in range(n):
-            states[k] = x
-            integral += (self.C @ x)[0] - zmp_ref[k]
-            jerk = (
-                -self.gain_error[0] * integral
-                - self.gain_state @ x
-                - self.gain_preview @ padded[k + 1 : k + 1 + horizon]
-            )
-            x = self.A @ x + self.B @ jerk[None, :]
+            states[k] = state.x
+            state = self.step(state, padded[k : k + 1 + horizon])
         zmp = np.einsum("j,kjd->kd", self.C[0], states)
         return states[:, 0], states[:, 1], states[:, 2], zmp
+
+    def at_rest(self, com: np.ndarray) -> PreviewState:
+        """The servo's state with the CoM at rest at ``com`` (d,), one column per axis."""
+        com = np.asarray(com, dtype=float)
+        x = np.zeros((3, len(com)))
+        x[0] = com
+        return PreviewState(x, np.zeros(len(com)))
+
+    def step(self, state: PreviewState, zmp_ref: np.ndarray) -> PreviewState:
+        """The state one period on: ``zmp_ref`` (horizon + 1, d) is the reference now and over
+        the preview horizon (:attr:`gain_preview`), held at its last value where it ends."""
+        integral = state.integral + ((self.C @ state.x)[0] - zmp_ref[0])
+        jerk = -self.gain_error[0] * integral - self.gain_state @ state.x - self.gain_preview @ zmp_ref[1:]
+        return PreviewState(self.A @ state.x + self.B @ jerk[None, :], integral)
+
+
+@dataclass(frozen=True)
+class PreviewState:
+    """The preview servo's state: ``x`` (3, d) the CoM's position, velocity and acceleration
+    per axis, ``integral`` (d,) the summed ZMP error."""
+
+    x: np.ndarray
+    integral: np.ndarray

@@ -109,6 +109,42 @@ def zmp_correction(t: np.ndarray, error: np.ndarray, height: float) -> np.ndarra
     return out
 
 
+def pelvis_shift_response(robot: Robot, q: np.ndarray) -> tuple[float, float]:
+    """How the multibody ZMP answers a horizontal shift ``Δc`` of the pelvis with the soles
+    held (the legs following by their Jacobians), linearised at the double-support posture
+    ``q`` with the robot at rest: ``Δp = κ (Δc - (h / g) Δc̈)``.
+
+    ``κ`` is the share of the shift the CoM takes (the legs stay behind), ``h`` the height of
+    the cart-table model that answers alike (above the CoM's: the upper body swings with the
+    pelvis, its angular momentum with it).  TALOS's reference posture: κ 0.84, h 1.00 m
+    (its CoM at 0.88 m).  Averaged over the two horizontal axes.
+
+    Returns
+    -------
+    kappa, height : (unitless, m)
+    """
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    legs = leg_joints(robot)
+    weight = pin.computeTotalMass(model) * GRAVITY
+    base = model.jointPlacements[1] * pin.XYZQUATToSE3(q[:7])
+    at_rest = pin.rnea(model, data, q, np.zeros(model.nv), np.zeros(model.nv)).copy()
+    kappas, coefficients = [], []
+    for axis in range(2):
+        motion = np.zeros(model.nv)  # unit pelvis translation along the world axis, soles fixed
+        motion[:3] = base.rotation.T[:, axis]
+        for side in SIDES:
+            J = pin.getFrameJacobian(model, data, robot.foot_frames[side], pin.LOCAL)
+            columns = legs[side][1]
+            motion[columns] = -np.linalg.solve(J[:, columns], J[:, :6] @ motion[:6])
+        kappas.append((pin.jacobianCenterOfMass(model, data, q) @ motion)[axis])
+        wrench = base.act(pin.Force(pin.rnea(model, data, q, np.zeros(model.nv), motion)[:6] - at_rest[:6]))
+        coefficients.append((-wrench.angular[1] if axis == 0 else wrench.angular[0]) / weight)
+    kappa = float(np.mean(kappas))
+    return kappa, float(-np.mean(coefficients) * GRAVITY / kappa)
+
+
 def _stance_error(robot: Robot, q: np.ndarray, ground: list[list[pin.SE3 | None]]) -> float:
     """Largest distance (m) of a sole in contact from its planned ground position."""
     soles = sole_placements(robot, q)

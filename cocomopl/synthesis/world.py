@@ -40,28 +40,61 @@ def _segments(step: PredictedStep) -> list[tuple[int, int]]:
     return out
 
 
-def sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Real times, signals and phase index of a step sampled at most ``dt`` apart.
+class StepCurves:
+    """A predicted step's signals as functions of real time from the step's start.
 
     Each impact-free part gets its own cubic spline, so velocities may jump at a touchdown
-    (as they do physically) without the spline ringing; the touchdown time then appears
-    twice, pre- and post-impact, as in every :class:`Motion`.
+    (as they do physically) without the spline ringing.  A part's spline is built when it
+    is first evaluated.
+
+    Attributes
+    ----------
+    step : the :class:`PredictedStep`
+    segments : per impact-free part, its (first, last) phases and real start and end times (s)
     """
-    edges = step.phase_edges
+
+    def __init__(self, step: PredictedStep):
+        self.step = step
+        edges = step.phase_edges
+        self.segments = [(first, last, edges[first], edges[last + 1]) for first, last in _segments(step)]
+        self._splines: dict[int, CubicSpline] = {}
+
+    def knots(self, dt: float) -> list[np.ndarray]:
+        """Per impact-free part, its sample times (s from the step's start), evenly spaced at
+        most ``dt`` apart from its start to its end: a short last interval would blow up
+        finite differences."""
+        out = []
+        for _, _, t0, t1 in self.segments:
+            n = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
+            out.append(np.linspace(t0, t1, n + 1))
+        return out
+
+    def at(self, t: np.ndarray, segment: int) -> tuple[np.ndarray, np.ndarray]:
+        """The signals (n, I) and phase indices (n,) at real times ``t`` (s, from the step's
+        start) within impact-free part ``segment``."""
+        first, last, _, _ = self.segments[segment]
+        edges, step = self.step.phase_edges, self.step
+        if segment not in self._splines:
+            b0, b1 = step.boundaries[first], step.boundaries[last + 1]
+            inside = (step.tau > b0) & (step.tau < b1)
+            knots = np.concatenate([[b0], step.tau[inside], [b1]])
+            ends = [_value_at(step, b0, after=True), _value_at(step, b1, after=False)]
+            self._splines[segment] = CubicSpline(knots, np.vstack([ends[0], step.values[inside], ends[1]]), axis=0)
+        phases = np.clip(np.searchsorted(edges, t + TIME_TOLERANCE, side="right") - 1, first, last)
+        return self._splines[segment](np.interp(t, edges, step.boundaries)), phases
+
+
+def sample_step(step: PredictedStep, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Real times, signals and phase index of a step sampled at most ``dt`` apart
+    (:class:`StepCurves`); the touchdown time between two impact-free parts appears twice,
+    pre- and post-impact, as in every :class:`Motion`."""
+    curves = StepCurves(step)
     ts, values, phases = [], [], []
-    for first, last in _segments(step):
-        t0, t1 = edges[first], edges[last + 1]
-        b0, b1 = step.boundaries[first], step.boundaries[last + 1]
-        inside = (step.tau > b0) & (step.tau < b1)
-        knots = np.concatenate([[b0], step.tau[inside], [b1]])
-        ends = [_value_at(step, b0, after=True), _value_at(step, b1, after=False)]
-        spline = CubicSpline(knots, np.vstack([ends[0], step.values[inside], ends[1]]), axis=0)
-        # evenly spaced, at most dt apart: a short last interval would blow up finite differences
-        n = max(int(np.ceil((t1 - t0) / dt - 1e-9)), 1)
-        t = np.linspace(t0, t1, n + 1)
+    for k, t in enumerate(curves.knots(dt)):
+        x, phase = curves.at(t, k)
         ts.append(t)
-        values.append(spline(np.interp(t, edges, step.boundaries)))
-        phases.append(np.clip(np.searchsorted(edges, t + TIME_TOLERANCE, side="right") - 1, first, last))
+        values.append(x)
+        phases.append(phase)
     return np.concatenate(ts), np.concatenate(values), np.concatenate(phases)
 
 
@@ -82,7 +115,7 @@ def _support(air: str | None) -> np.ndarray:
     return np.array([float(air != side) for side in SIDES])
 
 
-def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first: bool) -> np.ndarray:
+def anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first: bool) -> np.ndarray:
     """Weight (n, 2) of the (left, right) sole in the pelvis position, per sample.
 
     Single support hangs on the stance sole; double support blends from the sole that
@@ -103,6 +136,50 @@ def _anchor_weights(step: PredictedStep, t: np.ndarray, phase: np.ndarray, first
         s = (t[rows] - edges[p]) / (edges[p + 1] - edges[p])
         out[rows] = (1 - s)[:, None] * before + s[:, None] * after
     return out
+
+
+def anchored(robot: Robot, step: PredictedStep, feet: dict, values: np.ndarray, phase: np.ndarray,
+             weights: np.ndarray, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
+    """World configurations (n, nq) and reference ZMP (n, 3) of a step's signals ``values``
+    (n, I) in phases ``phase``: the learned joints and pelvis orientation, turned with the
+    step's stance sole, and the pelvis hung from the soles on the ground (``feet``,
+    :func:`~cocomopl.gait.footsteps`) by forward kinematics with the ``weights`` (n, 2) of
+    :func:`anchor_weights`."""
+    model = robot.model
+    n_joints = len(robot.joint_names)
+    plan = phase_plan(step.spec)
+    joints, zmp_local, rpy = values[:, :n_joints], values[:, n_joints : n_joints + 3], values[:, n_joints + 3 :]
+    # the step's signals are in its stance sole's frame, which the footsteps may have turned
+    heading = flat_placement(0.0, 0.0, feet["yaw"]["start"][OTHER_SIDE[step.spec.swing_side]]).rotation
+    q = np.empty((len(values), model.nq))
+    zmp = np.empty((len(values), 3))
+    for j in range(len(values)):
+        R = heading @ pin.rpy.rpyToMatrix(rpy[j])
+        q[j] = robot.q_ref
+        q[j, :3] = 0.0
+        q[j, 3:7] = [0, 0, 0, 1]
+        q[j, 7:] = joints[j]
+        pin.framesForwardKinematics(model, data, q[j])
+        position = np.zeros(3)
+        for s, side in enumerate(SIDES):
+            if weights[j, s] > 0:
+                sole = data.oMf[robot.foot_frames[side]].translation  # in the pelvis frame
+                position += weights[j, s] * (ground_position(feet, plan, side, phase=phase[j]) - R @ sole)
+        q[j, :3] = position
+        q[j, 3:7] = pin.Quaternion(R).coeffs()
+        zmp[j] = position + R @ zmp_local[j]
+    return q, zmp
+
+
+def soles_on_ground(step: PredictedStep, feet: dict, phase: np.ndarray) -> tuple[np.ndarray, list[list]]:
+    """Per sample of a step in phases ``phase``: which soles (left, right) are in contact,
+    (n, 2), and where each stands (a flat placement, None in the air)."""
+    plan = phase_plan(step.spec)
+    contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
+    ground = [[flat_placement(*ground_position(feet, plan, side, phase=p)[:2], ground_yaw(feet, plan, side, phase=p)) if c else None
+               for side, c in zip(SIDES, row)]
+              for p, row in zip(phase, contact)]
+    return contact, ground
 
 
 def zmp_in_support(robot: Robot, zmp: np.ndarray, ground: list[list]) -> np.ndarray:
@@ -148,42 +225,17 @@ def place_steps(robot: Robot, steps: list[PredictedStep], *, dt: float = 0.005,
     """The whole sequence as one world-frame :class:`Motion` sampled every ``dt`` seconds,
     starting from the sole poses ``soles`` (:func:`~cocomopl.gait.footsteps`; default: side
     by side at the origin)."""
-    model, data = robot.model, robot.model.createData()
-    n_joints = len(robot.joint_names)
+    data = robot.model.createData()
     feet_per_step = footsteps(robot, [s.spec for s in steps], soles)
     ts, qs, zmps, contacts, phases, starts, impacts, ground = [], [], [], [], [], [], [], []
     offset, count = 0.0, 0
     for k, (step, feet) in enumerate(zip(steps, feet_per_step)):
         t, values, phase = sample_step(step, dt)
-        weights = _anchor_weights(step, t, phase, first=(k == 0))
+        weights = anchor_weights(step, t, phase, first=(k == 0))
         plan = phase_plan(step.spec)
-        joints, zmp_local, rpy = values[:, :n_joints], values[:, n_joints : n_joints + 3], values[:, n_joints + 3 :]
-        # the step's signals are in its stance sole's frame, which the footsteps may have turned
-        heading = flat_placement(0.0, 0.0, feet["yaw"]["start"][OTHER_SIDE[step.spec.swing_side]]).rotation
-        q = np.empty((len(t), model.nq))
-        zmp = np.empty((len(t), 3))
-        for j in range(len(t)):
-            R = heading @ pin.rpy.rpyToMatrix(rpy[j])
-            q[j] = robot.q_ref
-            q[j, :3] = 0.0
-            q[j, 3:7] = [0, 0, 0, 1]
-            q[j, 7:] = joints[j]
-            pin.framesForwardKinematics(model, data, q[j])
-            position = np.zeros(3)
-            for s, side in enumerate(SIDES):
-                if weights[j, s] > 0:
-                    sole = data.oMf[robot.foot_frames[side]].translation  # in the pelvis frame
-                    position += weights[j, s] * (ground_position(feet, plan, side, phase=phase[j]) - R @ sole)
-            q[j, :3] = position
-            q[j, 3:7] = pin.Quaternion(R).coeffs()
-            zmp[j] = position + R @ zmp_local[j]
-        contact = np.array([[plan[p][1] != side for side in SIDES] for p in phase])
-        ground += [
-            [flat_placement(*ground_position(feet, plan, side, phase=p)[:2],
-                            ground_yaw(feet, plan, side, phase=p)) if c else None
-             for side, c in zip(SIDES, row)]
-            for p, row in zip(phase, contact)
-        ]
+        q, zmp = anchored(robot, step, feet, values, phase, weights, data)
+        contact, on_ground = soles_on_ground(step, feet, phase)
+        ground += on_ground
         for p in range(len(plan)):
             rows = np.flatnonzero(phase == p)
             phases.append((plan[p][0], count + int(rows[0]), count + int(rows[-1]) + (plan[p][0] == "ds" and p + 1 < len(plan))))
