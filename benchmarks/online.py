@@ -6,7 +6,8 @@
   of M_gen) against :func:`~cocomopl.synthesis.world.place_steps` on the same steps (the
   whole-walk filter), and both plans judged alike: the RMS of the multibody ZMP against the
   reference on the knots (``rms_zmp_error``), ``check_motion``'s ZMP margin and torque
-  ratio, and the export's safety gate on every streamed 5 ms sample.
+  ratio, the export's safety gate on every streamed 5 ms sample, and both plans played in
+  MuJoCo as ``cocomopl walk`` plays a plan, with and without the stabilizer.
 * **Commands**: the bundled step-space model walks a velocity-command script (forward,
   turn on the spot, sideways, backwards, stop; 3 s each); per command the compute of the
   command and of the tick after it (the replan latency) and the time until the streamed
@@ -33,6 +34,7 @@ from cocomopl.export.safety import check_safe
 from cocomopl.gait import m_gen, sequence_specs
 from cocomopl.motion import Footstep
 from cocomopl.online import VelocityCommand, WalkingGenerator, grid_of
+from cocomopl.pipeline import SimSettings, simulate_walk
 from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.requests import PLAN_DT
 from cocomopl.synthesis.dynamics_filter import rms_zmp_error
@@ -62,8 +64,13 @@ def walk_until_standing(generator, max_s: float = 60.0) -> tuple[list, np.ndarra
 def plan_figures(robot, motion) -> dict:
     report = check_motion(robot, motion, FRICTION)
     zmp = zmp_from_wrenches(sole_placements(robot, motion.q), motion.wrenches)
+    simulated = {}
+    for stabilizer in (True, False):
+        rollout, metrics = simulate_walk(robot, motion, SimSettings(stabilizer=stabilizer))
+        simulated["with_stabilizer" if stabilizer else "without_stabilizer"] = {
+            "fell": rollout.fell, "peak_force_over_weight": metrics.peak_force_over_weight}
     return {"zmp_error_rms_m": rms_zmp_error(zmp, motion.zmp, motion.impacts), "zmp_margin_m": report["zmp_margin"],
-            "torque_ratio": report["torque_ratio"], "knots": motion.n}
+            "torque_ratio": report["torque_ratio"], "knots": motion.n, "simulated": simulated}
 
 
 def m_gen_streamed(model, robot) -> dict:
@@ -141,6 +148,11 @@ def main() -> int:
     print(f"  ZMP error RMS: streamed {1e3 * s['zmp_error_rms_m']:.1f} mm, whole walk {1e3 * w['zmp_error_rms_m']:.1f} mm; "
           f"ZMP margin {1e3 * s['zmp_margin_m']:.0f} / {1e3 * w['zmp_margin_m']:.0f} mm; "
           f"torque ratio {s['torque_ratio']:.2f} / {w['torque_ratio']:.2f}")
+    for key, label in (("with_stabilizer", "with"), ("without_stabilizer", "without")):
+        a, b = s["simulated"][key], w["simulated"][key]
+        print(f"  MuJoCo {label} the stabilizer: streamed {'falls' if a['fell'] else 'stands'}, peak "
+              f"{a['peak_force_over_weight']:.2f} x weight; whole walk {'falls' if b['fell'] else 'stands'}, "
+              f"peak {b['peak_force_over_weight']:.2f}")
     print(f"  export gate on every streamed sample: {'passes' if not mgen['gate_failures'] else '; '.join(mgen['gate_failures'])}")
     print(f"commands: replan latency {', '.join(f'{1e3 * x:.2f}' for x in commands['replan_latency_s'])} ms; "
           f"references change {', '.join('-' if x is None else f'{x:.2f}' for x in commands['reference_change_after_s'])} s "

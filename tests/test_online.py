@@ -1,7 +1,10 @@
 """The streaming generator (cocomopl.online): commands, continuity, the causal filter's plan."""
 
 import math
+import subprocess
+import sys
 from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -27,6 +30,8 @@ from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.synthesis.dynamics_filter import pelvis_shift_response, rms_zmp_error
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import place_steps
+
+from conftest import assert_one_line_error
 
 FOOTSTEPS = [Footstep(0.2, 0.05, 0.2), Footstep(0.1, 0.0, -0.2)]
 
@@ -175,3 +180,12 @@ def test_the_knot_motion_needs_the_knots_kept(omni):
     generator = WalkingGenerator(omni, model_robot(omni))
     with pytest.raises(Error, match="keep_knots"):
         generator.knot_motion()
+
+
+@pytest.mark.slow  # the benchmark runs in a new process
+def test_the_online_benchmark_refuses_an_unknown_robot_in_one_line():
+    benchmark = Path(__file__).parents[1] / "benchmarks" / "online.py"
+    result = subprocess.run([sys.executable, str(benchmark), "--robot", "nobody", "--json"], capture_output=True,
+                            text=True, timeout=300)
+    assert_one_line_error(result, "nobody")
+    assert result.returncode == 2 and result.stdout == ""
