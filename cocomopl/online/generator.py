@@ -55,7 +55,7 @@ from cocomopl.requests import PLAN_DT, PLAN_DT_RANGE
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import FILTER_HEIGHT_WEIGHT, pelvis_shift_response
 from cocomopl.synthesis.step_chain import in_next_step_frame
-from cocomopl.synthesis.world import StepCurves, anchor_weights, anchored, soles_on_ground
+from cocomopl.synthesis.world import StepCurves, anchor_weights, anchored, soles_on_ground, zmp_in_support
 
 TICK_S = 0.005  # the default control period
 PREVIEW_S = 0.75  # s of the ZMP error each filter pass previews
@@ -408,6 +408,7 @@ class WalkingGenerator:
                 s = s * s * (3 - 2 * s)  # smoothstep: no velocity jump at lift-off or touchdown
                 j = SIDES.index(air)
                 targets[j] = pin.exp6((1 - s) * lift + s * land) * targets[j]
+        zmp = zmp_in_support(self.robot, zmp[None], ground)[0]  # as the whole-walk placement's
         return _Knot(p.t0 + t, q, zmp, contact[0], targets, p.spec, stretch)
 
     # ------------------------------------------------------------------ the filter
