@@ -156,6 +156,12 @@ def footstep_file(text: str) -> list:
     return _checked(read_landings, text)
 
 
+def command_file(text: str) -> list:
+    from cocomopl.online.commands import read_commands
+
+    return _checked(read_commands, text)
+
+
 def push(text: str):
     from cocomopl.sim.perturbations import parse_push
 
@@ -308,6 +314,10 @@ def synthesis_options(parser: argparse.ArgumentParser) -> None:
                       help="walk to a goal pose of the feet's midpoint, metres and degrees from the start, on "
                       "footsteps planned within the model's learned range and training support (docs/method.md#footstep-planner); "
                       "given again, walk on to the next goal after stopping at this one")
+    walk.add_argument("--commands", type=command_file, metavar="FILE.csv",
+                      help="walk a script of timed velocity commands, streamed step by step by the online generator: "
+                      "a CSV file with columns t_s,forward_m_s,sideways_m_s,yaw_rate_deg_s, the last row a stop "
+                      "(docs/cli.md#command-files)")
     parser.add_argument("--model", metavar="MODEL.npz", help="primitives model file (default: the robot's bundled one)")
     bundled_robot_option(parser)
     parser.add_argument("--dt", type=positive_float, metavar="S",
@@ -342,15 +352,17 @@ def walk_request(args):
     and ``--first-swing`` how straight steps start: without those, they are refused, as they
     would be ignored."""
     from cocomopl.ocp.settings import DEFAULT_WARM_START
-    from cocomopl.requests import FIRST_SWINGS, Footsteps, Goals, Refinement, StraightSteps, WalkRequest
+    from cocomopl.requests import FIRST_SWINGS, Commands, Footsteps, Goals, Refinement, StraightSteps, WalkRequest
 
-    straight = args.footsteps is None and args.to is None
+    straight = args.footsteps is None and args.to is None and args.commands is None
     for given, option, used, needed in ((args.data, "--data", args.refine, "--refine"),
                                         (args.warm_start, "--warm-start", args.refine, "--refine"),
                                         (args.first_swing, "--first-swing", straight, "--lengths-mm")):
         if given and not used:
             raise Error(f"{option} is used only with {needed}")
-    if args.footsteps is not None:
+    if args.commands is not None:
+        path = Commands(tuple((t, c.forward, c.sideways, c.yaw_rate) for t, c in args.commands))
+    elif args.footsteps is not None:
         path = Footsteps(args.footsteps)
     elif args.to is not None:
         path = Goals(args.to)

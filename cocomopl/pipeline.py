@@ -22,19 +22,20 @@ import numpy as np
 from cocomopl.data import dataset_path as bundled_dataset_path
 from cocomopl.data import model_path as bundled_model_path
 from cocomopl.dataset.signals import signal_names
-from cocomopl.dynamics import SIDES
+from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.gait import m_gen, m_opt, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
-from cocomopl.motion import Motion, StepSpec
+from cocomopl.motion import Motion, PlanRecord, StepSpec
 from cocomopl.planning.footsteps import Landing, landings_of, midpoint, walk_specs
 from cocomopl.planning.goal import plan_through
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
 from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.provenance import stamp
-from cocomopl.requests import PLAN_DT, Footsteps, Goal, Goals, Refinement, StraightSteps, WalkRequest
+from cocomopl.requests import PLAN_DT, Commands, Footsteps, Goal, Goals, Refinement, StraightSteps, WalkRequest
 from cocomopl.results import GoalErrors, RefineSummary, ReproduceReport, SimulationRecord, WalkReport
 from cocomopl.robot import Robot
+from cocomopl.synthesis.dynamics_filter import rms_zmp_error
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, outside_support, support_radius
 from cocomopl.synthesis.world import place_steps, replace_stretch
 
@@ -227,6 +228,8 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
         raise Error(f"{model_path}: its signals are not robot {robot.name}'s joints, ZMP and pelvis")
     if request.robot is not None and request.robot != robot.name:
         raise Error(f"{model_path} is a model of robot {robot.name!r}, not {request.robot!r}")
+    if isinstance(path, Commands):
+        return _streamed_walk(request, model, robot, model_path)
     if isinstance(path, StraightSteps):
         path = replace(path, lengths=path.lengths or m_gen(robot))
         specs = sequence_specs(path.lengths, path.first_swing)
@@ -262,6 +265,33 @@ def generate_walk(request: WalkRequest, *, progress: bool = False) -> GeneratedW
         refined, walk.refinement = refine(motion, refinement, progress=progress)
         walk.refined = refined.motion
     return walk
+
+
+def _streamed_walk(request: WalkRequest, model: MovementPrimitives, robot: Robot, model_path: Path) -> GeneratedWalk:
+    """The walk of a request's velocity commands, streamed by the online generator
+    (:class:`~cocomopl.online.WalkingGenerator`, knots ``request.dt`` apart at most): its
+    filtered knots as the generated motion; commands beyond what the model's footsteps allow
+    are refused naming the first."""
+    from cocomopl.online import VelocityCommand, WalkingGenerator, command_range
+    from cocomopl.online.commands import check_commands
+
+    generator = WalkingGenerator(model, robot, plan_dt=PLAN_DT if request.dt is None else request.dt, keep_knots=True)
+    commands = [(t, VelocityCommand(*c)) for t, *c in request.path.commands]
+    check_commands(commands, command_range(period=generator.period_, limits=generator.limits_))
+    started = time.perf_counter()
+    generator.follow(commands)
+    streamed_s = time.perf_counter() - started
+    motion = generator.knot_motion()
+    steps = generator.walked_steps()
+    zmp = zmp_from_wrenches(sole_placements(robot, motion.q), motion.wrenches)
+    error = rms_zmp_error(zmp, motion.zmp, motion.impacts)
+    motion.plan = PlanRecord(dynamics_filter_zmp_error_m=[error], dynamics_filter_kept_error_m=error, upper_body_limits={},
+                             plan_zmp_error_m=error, model=Path(model_path).name)
+    _noting_footsteps(motion, landings_of(robot, motion.steps))
+    messages = [f"step {k} ({s.spec.name}): {outside_support(model, s)}"
+                for k, s in enumerate(steps, start=1) if not s.in_support]
+    return GeneratedWalk(robot, model, motion, steps, request.path, generator.generation_s_,
+                         streamed_s - generator.generation_s_, messages)
 
 
 def refine(motion: Motion, refinement: Refinement | None = None, *, progress: bool = False):

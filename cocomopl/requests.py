@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import pairwise
 from pathlib import Path
 
 from cocomopl.data import dataset_path, model_path
@@ -97,7 +98,29 @@ class Goals:
         return "to " + " then ".join(f"{g[0]:g} m, {g[1]:g} m, {math.degrees(g[2]):g} deg" for g in self.poses)
 
 
-WalkPath = StraightSteps | Footsteps | Goals
+@dataclass(frozen=True)
+class Commands:
+    """Timed velocity commands ``(t s, forward m/s, sideways m/s, yaw rate rad/s)``, in order,
+    the last a stop, walked by the streaming generator (:mod:`cocomopl.online`)."""
+
+    commands: tuple[tuple[float, float, float, float], ...]
+
+    def __post_init__(self):
+        commands = tuple(tuple(float(v) for v in c) for c in self.commands)
+        if not commands or any(len(c) != 4 or not all(map(math.isfinite, c)) for c in commands):
+            raise Error(f"commands are one or more rows of four finite numbers (t s, forward m/s, sideways m/s, "
+                        f"yaw rate rad/s), not {self.commands!r}")
+        if any(b[0] <= a[0] for a, b in pairwise(commands)) or commands[0][0] < 0:
+            raise Error("the commands' times must increase from 0")
+        if any(commands[-1][1:]):
+            raise Error("the last command must be a stop (0, 0, 0): a walk ends standing")
+        object.__setattr__(self, "commands", commands)
+
+    def label(self) -> str:
+        return f"{len(self.commands)} velocity commands"
+
+
+WalkPath = StraightSteps | Footsteps | Goals | Commands
 
 
 @dataclass(frozen=True)
@@ -140,10 +163,12 @@ class WalkRequest:
     robot: str | None = None
 
     def __post_init__(self):
-        if not isinstance(self.path, StraightSteps | Footsteps | Goals):
-            raise Error(f"a walk's path is StraightSteps, Footsteps or Goals, not {type(self.path).__name__}")
+        if not isinstance(self.path, StraightSteps | Footsteps | Goals | Commands):
+            raise Error(f"a walk's path is StraightSteps, Footsteps, Goals or Commands, not {type(self.path).__name__}")
         if self.dt is not None:
             check_plan_dt(self.dt)
+        if isinstance(self.path, Commands) and self.refinement is not None:
+            raise Error("a walk of velocity commands is streamed step by step: it cannot be refined (--refine)")
         replanner = self.replanner
         if replanner is None:
             replanner = "reaim" if isinstance(self.path, Goals) and self.refinement is None else "none"

@@ -390,9 +390,12 @@ class GenerateReport(Result):
     def to_table(self) -> str:
         lines = [f"{'step':24s} {'duration':>9s} {'max joint std':>14s}  support", *(r.line() for r in self.steps)]
         upper = self.upper_body_limits
-        lines.append(f"upper body (the joints that carry no sole) corrected by up to {upper['largest_change_rad']:.3f} "
-                     f"rad: torque {upper['torque_ratio_before']:.2f} -> {upper['torque_ratio_after']:.2f}, velocity "
-                     f"{upper['velocity_ratio_before']:.2f} -> {upper['velocity_ratio_after']:.2f} of the limits")
+        if upper:
+            lines.append(f"upper body (the joints that carry no sole) corrected by up to {upper['largest_change_rad']:.3f} "
+                         f"rad: torque {upper['torque_ratio_before']:.2f} -> {upper['torque_ratio_after']:.2f}, velocity "
+                         f"{upper['velocity_ratio_before']:.2f} -> {upper['velocity_ratio_after']:.2f} of the limits")
+        else:
+            lines.append("upper body (the joints that carry no sole) not corrected into its limits: a streamed walk")
         if self.refine is not None:
             lines += self.refine.lines()
         lines.append(f"wrote {self.output}: {plural(len(self.steps), 'step')}, {self.duration_s:.2f} s of walking; "

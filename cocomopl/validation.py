@@ -9,7 +9,9 @@ file; the readers prefix it.
 
 from __future__ import annotations
 
+import csv
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -20,6 +22,36 @@ from cocomopl.motion import Motion
 PHASE_KINDS = ("ds", "ss")
 QUATERNION_TOLERANCE = 1e-3  # |norm - 1| of the base orientation; solvers and MuJoCo keep it near 1e-12
 NO_PUSH_FORCE = 1e-6  # N: the ZMP is undefined (NaN) where the soles push less than this in all
+
+
+def read_csv_table(path: str | Path, columns: tuple[str, ...], *, what: str) -> list[tuple[int, list[str]]]:
+    """The rows of a CSV file with the header ``columns``, as (row number from 1, its cells
+    stripped), blank lines left out.
+
+    Raises
+    ------
+    Error
+        One line naming the file (a ``what`` file) and the row: a missing or unreadable
+        file, another header, a row with a missing or extra value, no rows.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise Error(f"{path}: no such {what} file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise Error(f"{path}: cannot read it as a UTF-8 text file ({error.__class__.__name__})") from None
+    rows = [row for row in csv.reader(text.splitlines()) if any(cell.strip() for cell in row)]
+    if not rows or tuple(cell.strip() for cell in rows[0]) != columns:
+        raise Error(f"{path}: the first line must be the header {','.join(columns)}")
+    out = []
+    for row, cells in enumerate(rows[1:], start=2):
+        if len(cells) != len(columns):
+            raise Error(f"{path}: row {row} has {len(cells)} values, expected {len(columns)} ({','.join(columns)})")
+        out.append((row, [cell.strip() for cell in cells]))
+    if not out:
+        raise Error(f"{path}: no rows after the header")
+    return out
 
 
 def require(condition: bool, message: str) -> None:

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from cocomopl.analysis.feasibility import check_motion
+from cocomopl.analysis.feasibility import check_motion, tolerances, violations
 from cocomopl.data import model_path
 from cocomopl.dynamics import (
     SIDES,
@@ -24,14 +24,16 @@ from cocomopl.export.safety import check_safe
 from cocomopl.kinematics import leg_joints, place_legs
 from cocomopl.motion import Footstep
 from cocomopl.online import VelocityCommand, WalkingGenerator, command_range, grid_of
-from cocomopl.online.commands import command_footstep
+from cocomopl.online.commands import command_footstep, read_commands
+from cocomopl.pipeline import generate_walk
 from cocomopl.planning.footsteps import footstep_specs
 from cocomopl.primitives.model_file import load_model, model_robot
+from cocomopl.requests import PLAN_DT, Commands, WalkRequest
 from cocomopl.synthesis.dynamics_filter import pelvis_shift_response, rms_zmp_error
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import place_steps
 
-from conftest import assert_one_line_error
+from conftest import assert_one_line_error, run_cli
 
 FOOTSTEPS = [Footstep(0.2, 0.05, 0.2), Footstep(0.1, 0.0, -0.2)]
 
@@ -189,3 +191,45 @@ def test_the_online_benchmark_refuses_an_unknown_robot_in_one_line():
                             text=True, timeout=300)
     assert_one_line_error(result, "nobody")
     assert result.returncode == 2 and result.stdout == ""
+
+
+HEADER = "t_s,forward_m_s,sideways_m_s,yaw_rate_deg_s\n"
+
+
+def test_a_command_file_walks_its_commands_and_passes_the_checks(tmp_path):
+    script = tmp_path / "script.csv"
+    script.write_text(HEADER + "0,0.15,0,0\n2,0,0,10\n4,0,0,0\n")
+    out = tmp_path / "walk.h5"
+    result = run_cli("generate", "--commands", str(script), "--out", str(out), "--json")
+    assert result.returncode == 0, result.stderr
+    walk = generate_walk(WalkRequest(Commands(tuple((t, c.forward, c.sideways, c.yaw_rate)
+                                                    for t, c in read_commands(script)))))
+    kinds = [s.kind for s in walk.motion.steps]
+    assert kinds[0] == "start" and kinds[-1] == "stop" and kinds.count("start") == 1
+    assert any(s.end_turn != 0 for s in walk.motion.steps)  # the turn command was walked
+    assert violations(check_motion(walk.robot, walk.motion, 0.7), tolerances(PLAN_DT)) == []
+    assert run_cli("dataset", "check", str(out)).returncode == 0
+
+
+@pytest.mark.parametrize("text, words", [
+    ("t,forward\n0,0\n", ["header"]),
+    (HEADER + "0,fast,0,0\n", ["row 2", "forward_m_s", "'fast'"]),
+    (HEADER + "0,0.1,0,0\n0,0,0,0\n", ["row 3", "after the row before"]),
+    (HEADER + "0,0.1,0,0\n", ["last command must be a stop"]),
+    (HEADER + "0,0.1,0\n1,0,0,0\n", ["row 2", "3 values"]),
+    (HEADER, ["no rows"]),
+])
+def test_bad_command_files_are_refused_in_one_line(tmp_path, text, words):
+    script = tmp_path / "script.csv"
+    script.write_text(text)
+    result = run_cli("generate", "--commands", str(script), "--out", str(tmp_path / "walk.h5"))
+    assert_one_line_error(result, *words)
+    assert not (tmp_path / "walk.h5").exists()
+
+
+def test_a_command_beyond_the_footsteps_is_refused_naming_it(tmp_path):
+    script = tmp_path / "script.csv"
+    script.write_text(HEADER + "0,0.1,0,0\n1,2.0,0,0\n3,0,0,0\n")
+    result = run_cli("generate", "--commands", str(script), "--out", str(tmp_path / "walk.h5"))
+    assert_one_line_error(result, "command 2", "forward 2 m/s", "outside")
+    assert not (tmp_path / "walk.h5").exists()

@@ -134,7 +134,7 @@ HEADER = "x_m,y_m,yaw_deg,side\n"
 @pytest.mark.parametrize("text, words", [
     ("", ["header"]),
     ("x,y,yaw,side\n0.2,0.085,0,left\n", ["header"]),
-    (HEADER, ["no landings"]),
+    (HEADER, ["no rows"]),
     (HEADER + "0.2,0.085,0\n", ["row 2", "3 values"]),
     (HEADER + "0.2,abc,0,left\n", ["row 2", "y_m", "not a number"]),
     (HEADER + "0.2,0.085,inf,left\n", ["row 2", "not finite"]),

@@ -9,7 +9,7 @@ import pytest
 from cocomopl.analysis.metrics import WalkMetrics
 from cocomopl.errors import Error
 from cocomopl.planning.footsteps import Landing
-from cocomopl.requests import Footsteps, Goals, Refinement, StraightSteps, WalkRequest
+from cocomopl.requests import Commands, Footsteps, Goals, Refinement, StraightSteps, WalkRequest
 from cocomopl.results import GoalErrors, RefineReport, RefineSummary, SimulateReport, SimulationRecord
 
 from conftest import run_cli
@@ -28,12 +28,16 @@ def test_a_goal_walk_reaims_by_default_and_any_other_walk_does_not():
     (lambda: WalkRequest(Goals([(1, 0, 0)]), replanner="reaim", refinement=Refinement()), ["re-aiming", "--refine"]),
     (lambda: WalkRequest(Goals([(1, 0, 0)]), replanner="recover", refinement=Refinement()), ["recovery", "--refine"]),
     (lambda: WalkRequest(Goals([(1, 0, 0)]), replanner="twice"), ["replanner", "'twice'"]),
-    (lambda: WalkRequest([0.25, 0.25]), ["StraightSteps, Footsteps or Goals", "list"]),
+    (lambda: WalkRequest([0.25, 0.25]), ["StraightSteps, Footsteps, Goals or Commands", "list"]),
     (lambda: WalkRequest(StraightSteps([0.25, 0.25]), dt=0.5), ["--dt 0.5 s", "0.01 to 0.05"]),
     (lambda: StraightSteps([0.25, 0.25], first_swing="middle"), ["first swing", "'middle'"]),
     (lambda: Goals([]), ["goals"]),
     (lambda: Goals([(1.0, float("nan"), 0.0)]), ["three finite numbers"]),
     (lambda: Footsteps([]), ["at least one landing"]),
+    (lambda: Commands([]), ["four finite numbers"]),
+    (lambda: Commands([(0, 0.1, 0, 0), (0, 0, 0, 0)]), ["times must increase"]),
+    (lambda: Commands([(0, 0.1, 0, 0)]), ["last command must be a stop"]),
+    (lambda: WalkRequest(Commands([(0, 0.1, 0, 0), (2, 0, 0, 0)]), refinement=Refinement()), ["streamed", "--refine"]),
     (lambda: Refinement(warm_start="neighbour"), ["'neighbour'", "interpolated"]),
 ])
 def test_options_that_exclude_each_other_cannot_be_built(build, words):

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
-from cocomopl.errors import Error
+from cocomopl.errors import Error, parse_finite
 from cocomopl.motion import Footstep, StepSpec
 from cocomopl.planning.goal import turn_step_out
 from cocomopl.primitives.estimator import MovementPrimitives
+from cocomopl.validation import read_csv_table
 
 
 @dataclass(frozen=True)
@@ -83,3 +85,43 @@ def _clip(value: float, bounds: tuple[float, float], symmetric: bool = False) ->
         high = min(-low, high)
         low = -high
     return min(max(value, low), high)
+
+
+COLUMNS = ("t_s", "forward_m_s", "sideways_m_s", "yaw_rate_deg_s")
+MAX_COMMANDS = 1000  # a longer script is a mistake in the file, not a walk
+
+
+def read_commands(path: str | Path) -> list[tuple[float, VelocityCommand]]:
+    """The timed velocity commands of a command file: CSV with the header
+    ``t_s,forward_m_s,sideways_m_s,yaw_rate_deg_s``, one command per row from its time on,
+    times increasing from 0, the last a stop (0, 0, 0) so the walk ends standing.
+
+    Raises
+    ------
+    Error
+        One line naming the file, and the row where it applies.
+    """
+    table = read_csv_table(path, COLUMNS, what="command")
+    if len(table) > MAX_COMMANDS:
+        raise Error(f"{path}: {len(table)} commands is more than {MAX_COMMANDS}")
+    out = []
+    for row, cells in table:
+        t, forward, sideways, yaw = (parse_finite(c, f"{path}: row {row}: {n}") for c, n in zip(cells, COLUMNS))
+        if t < 0 or (out and t <= out[-1][0]):
+            raise Error(f"{path}: row {row}: t_s {t:g} must be at least 0 and after the row before's")
+        out.append((t, VelocityCommand(forward, sideways, math.radians(yaw))))
+    if not out[-1][1].is_stop:
+        raise Error(f"{path}: the last command must be a stop (0,0,0): a walk ends standing")
+    return out
+
+
+def check_commands(commands: list[tuple[float, VelocityCommand]], ranges: dict[str, tuple[float, float]]) -> None:
+    """An :class:`Error` naming the first command (from 1) outside ``ranges`` (:func:`command_range`)."""
+    for number, (t, command) in enumerate(commands, start=1):
+        for name in ("forward", "sideways", "yaw_rate"):
+            low, high = ranges[name]
+            value = getattr(command, name)
+            if not low - 1e-9 <= value <= high + 1e-9:
+                unit, scale = ("deg/s", math.degrees(1)) if name == "yaw_rate" else ("m/s", 1.0)
+                raise Error(f"command {number} (t = {t:g} s): {name} {value * scale:.3g} {unit} is outside "
+                            f"{low * scale:.3g}..{high * scale:.3g} {unit}, what the model's footsteps allow")

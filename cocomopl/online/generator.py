@@ -36,6 +36,7 @@ conditioned on that step's end, so no reference jumps.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -196,6 +197,7 @@ class WalkingGenerator:
     ----------
     period_ : s, the step period a velocity command's footsteps are sized by
     limits_ : the footstep range the model was trained on; commands are saturated to it
+    generation_s_ : s spent predicting steps so far (the rest of a tick places and filters)
     """
 
     def __init__(self, model: MovementPrimitives, robot: Robot, *, dt: float = TICK_S, plan_dt: float = PLAN_DT,
@@ -223,6 +225,8 @@ class WalkingGenerator:
         self._block_first: dict[int, int] = {}  # first knot of each block of the local correction
         self._k, self._interval = 0, 0  # the next tick; the knot at or before it
         self._kept: list[tuple[_Knot, np.ndarray]] | None = [] if keep_knots else None
+        self._walked: list[_Planned] = []  # with keep_knots, the steps already walked and let go
+        self.generation_s_ = 0.0
         soles = {s: np.asarray(p, dtype=float) for s, p in (soles or initial_soles(robot)).items()}
         first = model.predict(StepSpec.between("start", Footstep(0.0), Footstep(0.0)))
         stance = _Stance(soles, None, first.values[0])
@@ -258,6 +262,28 @@ class WalkingGenerator:
         :class:`~cocomopl.motion.StepSpec` measures them), then stop."""
         self._queue, self._command = [Footstep(*map(float, f)) for f in footsteps], STOP
         self._replan()
+
+    def follow(self, commands: list[tuple[float, VelocityCommand]], *, standing_s: float = 1.0) -> list[Reference]:
+        """Tick through timed ``commands`` ((s from now, command), in order, the last a stop),
+        each given at its time, until the robot has stood still for ``standing_s`` after
+        its last step: the references of every tick."""
+        start, pending, references, still = self.time, list(commands), [], 0
+        limit = start + (pending[-1][0] if pending else 0.0) + len(self._passes) * self.preview_s + 10 * self.period_
+        while self.time < limit:
+            while pending and self.time >= start + pending[0][0] - TIME_EPS:
+                self.command(pending.pop(0)[1])
+            references.append(self.tick())
+            still = still + 1 if not pending and references[-1].step is None else 0
+            if still * self.dt >= standing_s:
+                break
+        return references
+
+    def walked_steps(self) -> list[PredictedStep]:
+        """The predicted steps the knots kept for :meth:`knot_motion` belong to, in order."""
+        if self._kept is None:
+            raise Error("walked_steps needs a generator made with keep_knots=True")
+        specs = self.knot_motion().steps
+        return [p.step for p in (self._walked + self._planned)[: len(specs)]]
 
     def _replan(self) -> None:
         """Drop the steps not begun by the end of the last corrected block (``committed``),
@@ -313,7 +339,9 @@ class WalkingGenerator:
         if spec is None:
             return None
         before = self._stance
+        started = time.perf_counter()
         step = self.model.predict(spec, start=before.end)
+        self.generation_s_ += time.perf_counter() - started
         feet = footsteps(self.robot, [spec], before.soles)[0]
         planned = _Planned(spec, step, StepCurves(step), feet, t0, before)
         planned.knots = planned.curves.knots(self.plan_dt)
@@ -593,6 +621,8 @@ class WalkingGenerator:
         for filter_pass in self._passes:
             filter_pass.forget_before(first)
         t = self._slots[first][0]
+        if self._kept is not None:
+            self._walked += [p for p in self._planned if p.t1 <= t - 1.0]
         self._planned = [p for p in self._planned if p.t1 > t - 1.0]
         for block in [b for b, i in self._block_first.items() if i < first - 2 * BLOCK_INSTANTS]:
             del self._block_first[block]
@@ -606,7 +636,12 @@ class WalkingGenerator:
             raise Error("knot_motion needs a generator made with keep_knots=True")
         last = len(self._passes) - 1
         knots = self._kept + [(self._knots[i], self._output(last, i)) for i in sorted(self._knots) if i <= self._interval]
-        t = np.array([k.t for k, _ in knots])
+        # from the first step's first knot to the last step's last: standing before and after is the same posture
+        walking = [k for k, (knot, _) in enumerate(knots) if knot.spec is not None]
+        if not walking:
+            raise Error("the generator has not walked yet: no step to make a motion of")
+        knots = knots[walking[0] : walking[-1] + 1]
+        t = np.array([k.t for k, _ in knots]) - knots[0][0].t
         contact = np.array([k.contact for k, _ in knots])
         impacts = np.array([i for i, (k, _) in enumerate(knots[:-1]) if k.pre_impact], dtype=int)
         phases, first = [], 0

@@ -12,7 +12,6 @@ Footstep files are CSV with the header ``x_m,y_m,yaw_deg,side`` and one landing 
 
 from __future__ import annotations
 
-import csv
 import itertools
 import math
 from collections.abc import Sequence
@@ -33,6 +32,7 @@ from cocomopl.gait import (
 )
 from cocomopl.motion import Footstep, StepSpec
 from cocomopl.robot import Robot
+from cocomopl.validation import read_csv_table
 
 COLUMNS = ("x_m", "y_m", "yaw_deg", "side")
 MAX_LANDINGS = 200  # a longer plan is a mistake in the file, not a walk
@@ -136,27 +136,12 @@ def read_landings(path: str | Path) -> list[Landing]:
         another header, a missing or extra value, a value that is not a finite number, a side
         other than left or right.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise Error(f"{path}: no such footstep file") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise Error(f"{path}: cannot read it as a UTF-8 text file ({error.__class__.__name__})") from None
-    rows = [row for row in csv.reader(text.splitlines()) if any(cell.strip() for cell in row)]
-    if not rows or tuple(cell.strip() for cell in rows[0]) != COLUMNS:
-        raise Error(f"{path}: the first line must be the header {','.join(COLUMNS)}")
     out = []
-    for row, cells in enumerate(rows[1:], start=2):
-        cells = [cell.strip() for cell in cells]
-        if len(cells) != len(COLUMNS):
-            raise Error(f"{path}: row {row} has {len(cells)} values, expected {len(COLUMNS)} ({','.join(COLUMNS)})")
+    for row, cells in read_csv_table(path, COLUMNS, what="footstep"):
         x, y, yaw = (parse_finite(text, f"{path}: row {row}: {column}") for text, column in zip(cells[:3], COLUMNS))
         if cells[3] not in OTHER_SIDE:
             raise Error(f"{path}: row {row}: side {cells[3]!r} is not left or right")
         out.append(Landing(x, y, math.radians(yaw), cells[3]))
-    if not out:
-        raise Error(f"{path}: no landings after the header")
     return out
 
 
