@@ -27,6 +27,13 @@ same whatever ``--n`` (its draw is seeded from ``S`` and ``k``).  The walk's foo
 steps the model flags outside its training support are counted, not refused.
 ``--footstep-dir DIR`` keeps the files (``walk_K.csv``), to replay a walk that fell.
 
+With ``--commands``, each walk follows a random script of velocity commands (``cocomopl
+walk --commands FILE``, :func:`random_command_script`): over ``--script-s`` seconds (default 20)
+a new command every 2 to 5 s, each a stop with probability 1/4, else each component drawn
+uniformly over what the model's footsteps allow (``cocomopl.online.command_range``), and a
+stop at the end; the walk is streamed by the online generator with the bundled
+omnidirectional model (or ``--model``).
+
 With ``--feedforward``, each walk is also simulated with the servos' torque feedforward from
 the plan, without and with the stabilizer (``cocomopl walk [--no-stabilizer] --feedforward``,
 ``--no-reaim`` for a goal; G1's default is the latter).  The other runs are without it, whatever the
@@ -41,7 +48,8 @@ force over the robot's weight; the steps the model flags out of its support, the
 dynamics filter warns about, and the plans within the checks of ``cocomopl dataset check``.
 A figure is reported on a seed that nothing was tuned on.
 
-    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals | --footsteps [--steps 12]]
+    python benchmarks/random_walks.py [--n 50] [--seed 0] [--max-change-mm 100] [--goals | --footsteps [--steps 12] |
+        --commands [--script-s 20]]
         [--feedforward] [--reaim] [--workers 2] [--contact-time-constant-s 0.01] [--reference-cutoff-hz 15]
         [--model MODEL] [--footstep-dir DIR] [--dry-run] [--json]
 """
@@ -100,7 +108,7 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
     from cocomopl.ocp.settings import OCPSettings
     from cocomopl.pipeline import generate_walk, goal_errors, kajita_for, reaiming_for
     from cocomopl.planning.footsteps import read_landings
-    from cocomopl.requests import Footsteps, Goals, StraightSteps, WalkRequest
+    from cocomopl.requests import Commands, Footsteps, Goals, StraightSteps, WalkRequest
     from cocomopl.sim.mujoco_model import build_sim_model
     from cocomopl.sim.rollout import simulate
 
@@ -112,6 +120,8 @@ def run_one(request: dict, contact_time_constant: float, model: str, reference_c
             path = Goals([goal])
         elif "footstep_file" in request:
             path = Footsteps(read_landings(request["footstep_file"]))  # as `cocomopl walk --footsteps FILE` reads it
+        elif "commands" in request:
+            path = Commands(tuple((t, f, s, math.radians(yaw)) for t, f, s, yaw in request["commands"]))
         else:
             path = StraightSteps([x / 1000 for x in request["lengths_mm"]])
         walk = generate_walk(WalkRequest(path, model=model))
@@ -181,6 +191,24 @@ def random_footstep_walk(robot: Robot, steps: int, *, seed: int, walk: int, fold
     return out
 
 
+def random_command_script(ranges: dict, duration_s: float, *, seed: int, walk: int) -> dict:
+    """Walk ``walk`` of ``seed``: timed velocity commands ``[t_s, forward_m_s, sideways_m_s,
+    yaw_rate_deg_s]`` over ``duration_s``, a new one every 2 to 5 s, each a stop with
+    probability 1/4, else each component uniform over ``ranges`` (``command_range``), and a
+    stop at ``duration_s``, as a command file has them."""
+    rng = np.random.default_rng(walk_seed(seed, walk))
+    commands, t = [], 0.0
+    while t < duration_s:
+        if commands and rng.random() < 0.25:
+            values = [0.0, 0.0, 0.0]
+        else:
+            values = [float(np.round(rng.uniform(*ranges[key]), 4)) for key in ("forward", "sideways", "yaw_rate")]
+        commands.append([round(t, 3), values[0], values[1], round(math.degrees(values[2]), 2)])
+        t += float(rng.uniform(2.0, 5.0))
+    commands.append([round(duration_s, 3), 0.0, 0.0, 0.0])
+    return {"walk": walk, "commands": commands}
+
+
 def random_goal(rng: np.random.Generator) -> list[float]:
     """A goal pose [x_m, y_m, yaw_deg] within 1.5 m ahead, 0.6 m behind or aside and 90 deg."""
     return [float(np.round(rng.uniform(-0.6, 1.5), 3)), float(np.round(rng.uniform(-0.6, 0.6), 3)),
@@ -218,7 +246,8 @@ def summarise(args: argparse.Namespace, sequences: list[dict], results: list[dic
     """The figures of a run: per simulation the walks standing and the peak contact forces,
     the steps out of the model's support and the plans within the checks of `dataset check`."""
     summary = {"n": args.n, "seed": args.seed, "model": args.model, "max_change_mm": args.max_change_mm,
-               "goals": args.goals, "footsteps": args.footsteps, "feedforward": args.feedforward, "reaim": args.reaim,
+               "goals": args.goals, "footsteps": args.footsteps, "commands": args.commands, "feedforward": args.feedforward,
+               "reaim": args.reaim,
                "unplanned": unplanned, "walks": len(results),
                "contact_time_constant_s": args.contact_time_constant_s, "reference_cutoff_hz": args.reference_cutoff_hz,
                "wall_time_s": wall_time_s}
@@ -251,7 +280,7 @@ def summarise(args: argparse.Namespace, sequences: list[dict], results: list[dic
         for name, values in ((k, [r["plan_checks"][k] for r in results]) for k in results[0]["plan_checks"])
     }
     summary["plan_failures"] = [
-        {k: r[k] for k in ("lengths_mm", "goal", "walk", "footstep_file") if k in r}
+        {k: r[k] for k in ("lengths_mm", "goal", "walk", "footstep_file", "commands") if k in r}
         | {name: r["plan_checks"][name] for name in r["plan_violations"]}
         for r in results if r["plan_violations"]
     ]
@@ -293,6 +322,9 @@ def main() -> int:
                       help="omnidirectional walks instead: random goal poses, footsteps planned within the model's range")
     mode.add_argument("--footsteps", action="store_true",
                       help="omnidirectional walks instead: footsteps drawn independently over the whole allowed range")
+    mode.add_argument("--commands", action="store_true",
+                      help="omnidirectional walks instead: random scripts of velocity commands, streamed online")
+    parser.add_argument("--script-s", type=float, help="seconds of commands per walk with --commands (default: 20)")
     parser.add_argument("--steps", type=int, help=f"footsteps per walk with --footsteps (default: {FOOTSTEP_WALK_STEPS})")
     parser.add_argument("--footstep-dir", type=Path, metavar="DIR",
                         help="with --footsteps, keep each walk's footstep file there (walk_K.csv; default: a temporary folder)")
@@ -310,12 +342,19 @@ def main() -> int:
     parser.add_argument("--dry-run", action="store_true", help="print the walks that would run, and stop")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    args.model = args.model or str(BUNDLED_OMNI_MODEL if args.goals or args.footsteps else BUNDLED_MODEL)
+    args.model = args.model or str(BUNDLED_OMNI_MODEL if args.goals or args.footsteps or args.commands else BUNDLED_MODEL)
     if args.n < 1 or args.workers < 1:
         parser.error("--n and --workers are at least 1")
     for given, option in ((args.steps, "--steps"), (args.footstep_dir, "--footstep-dir")):
         if given is not None and not args.footsteps:
             parser.error(f"{option} is used only with --footsteps")
+    if args.script_s is not None and not args.commands:
+        parser.error("--script-s is used only with --commands")
+    if args.reaim and args.commands:
+        parser.error("--reaim replans whole walks: it is not used with --commands")
+    args.script_s = 20.0 if args.script_s is None else args.script_s
+    if not 1.0 <= args.script_s <= 600.0:
+        parser.error(f"--script-s {args.script_s:g} is outside 1..600 s")
     args.steps = FOOTSTEP_WALK_STEPS if args.steps is None else args.steps
     if not 1 <= args.steps < MAX_LANDINGS:
         parser.error(f"--steps {args.steps} is outside 1..{MAX_LANDINGS - 1}")
@@ -337,6 +376,12 @@ def main() -> int:
             folder = args.footstep_dir or (None if args.dry_run else Path(scratch))
             sequences = [random_footstep_walk(robot, args.steps, seed=args.seed, walk=k, folder=folder)
                          for k in range(args.n)]
+        elif args.commands:
+            from cocomopl.online import command_range, step_period
+
+            model = load_model(args.model)
+            ranges = command_range(period=step_period(model), limits=model.footstep_range())
+            sequences = [random_command_script(ranges, args.script_s, seed=args.seed, walk=k) for k in range(args.n)]
         else:
             scale = robot.scale  # TALOS's range and change, scaled to the model's robot
             lengths = length_range_mm(scale)
