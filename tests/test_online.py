@@ -22,7 +22,7 @@ from cocomopl.dynamics import (
 from cocomopl.errors import Error
 from cocomopl.export.safety import check_safe
 from cocomopl.kinematics import leg_joints, place_legs
-from cocomopl.motion import Footstep
+from cocomopl.motion import Footstep, StepSpec
 from cocomopl.online import VelocityCommand, WalkingGenerator, command_range, grid_of
 from cocomopl.online.commands import command_footstep, read_commands
 from cocomopl.pipeline import generate_walk
@@ -30,7 +30,7 @@ from cocomopl.planning.footsteps import footstep_specs
 from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.requests import PLAN_DT, Commands, WalkRequest
 from cocomopl.synthesis.dynamics_filter import pelvis_shift_response, rms_zmp_error
-from cocomopl.synthesis.step_chain import generate_steps
+from cocomopl.synthesis.step_chain import generate_steps, in_next_step_frame
 from cocomopl.synthesis.world import place_steps
 
 from conftest import assert_one_line_error, run_cli
@@ -198,15 +198,18 @@ HEADER = "t_s,forward_m_s,sideways_m_s,yaw_rate_deg_s\n"
 
 def test_a_command_file_walks_its_commands_and_passes_the_checks(tmp_path):
     script = tmp_path / "script.csv"
-    script.write_text(HEADER + "0,0.15,0,0\n2,0,0,10\n4,0,0,0\n")
+    # turn on the spot, stand, walk on: a start after a turned stop
+    script.write_text(HEADER + "0,0,0,15\n2,0,0,0\n3,0.15,0,0\n5,0,0,0\n")
     out = tmp_path / "walk.h5"
     result = run_cli("generate", "--commands", str(script), "--out", str(out), "--json")
     assert result.returncode == 0, result.stderr
     walk = generate_walk(WalkRequest(Commands(tuple((t, c.forward, c.sideways, c.yaw_rate)
                                                     for t, c in read_commands(script)))))
     kinds = [s.kind for s in walk.motion.steps]
-    assert kinds[0] == "start" and kinds[-1] == "stop" and kinds.count("start") == 1
+    assert kinds[0] == "start" and kinds[-1] == "stop" and kinds.count("start") == 2
     assert any(s.end_turn != 0 for s in walk.motion.steps)  # the turn command was walked
+    yaw = np.unwrap([pin.rpy.matrixToRpy(pin.XYZQUATToSE3(q[:7]).rotation)[2] for q in walk.motion.q])
+    assert np.abs(np.diff(yaw)).max() < math.radians(2)  # the walk on starts where the stop ended
     assert violations(check_motion(walk.robot, walk.motion, 0.7), tolerances(PLAN_DT)) == []
     assert run_cli("dataset", "check", str(out)).returncode == 0
 
@@ -233,3 +236,12 @@ def test_a_command_beyond_the_footsteps_is_refused_naming_it(tmp_path):
     result = run_cli("generate", "--commands", str(script), "--out", str(tmp_path / "walk.h5"))
     assert_one_line_error(result, "command 2", "forward 2 m/s", "outside")
     assert not (tmp_path / "walk.h5").exists()
+
+
+def test_a_step_after_a_turned_stop_is_conditioned_in_the_frame_the_stop_ends_in(omni):
+    turn = math.radians(10)
+    yaw = omni.signal_names.index("pelvis_yaw")
+    end = np.zeros(len(omni.signal_names))
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        stop = StepSpec.between("stop", Footstep(0.2, 0.0, turn), Footstep(0.0), swing_side=side)
+        assert in_next_step_frame(omni, stop, end)[yaw] == pytest.approx(-sign * turn)

@@ -62,9 +62,12 @@ def in_next_step_frame(model: MovementPrimitives, spec: StepSpec, end: np.ndarra
     """The signals ``end`` at the end of step ``spec``, in the frame of the step after it.
 
     Each step's signals are in its stance sole's frame; the next step stands on the sole
-    that just landed, turned by the step's footstep, so only the pelvis yaw changes.
+    that just landed, turned by the step's footstep, so only the pelvis yaw changes.  A
+    stop's swing sole lands at its start footstep and the other closes up beside it,
+    parallel: the next step (a start) stands turned by that footstep's turn.
     """
-    turn = spec.end_turn if spec.swing_side == "left" else -spec.end_turn
+    footstep_turn = spec.start_turn if spec.kind == "stop" else spec.end_turn
+    turn = footstep_turn if spec.swing_side == "left" else -footstep_turn
     if turn == 0.0:
         return end
     out = end.copy()
