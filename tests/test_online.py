@@ -1,5 +1,6 @@
 """The streaming generator (cocomopl.online): commands, continuity, the causal filter's plan."""
 
+import json
 import math
 import subprocess
 import sys
@@ -245,3 +246,16 @@ def test_a_step_after_a_turned_stop_is_conditioned_in_the_frame_the_stop_ends_in
     for side, sign in (("left", 1.0), ("right", -1.0)):
         stop = StepSpec.between("stop", Footstep(0.2, 0.0, turn), Footstep(0.0), swing_side=side)
         assert in_next_step_frame(omni, stop, end)[yaw] == pytest.approx(-sign * turn)
+
+
+@pytest.mark.slow  # a new process, MuJoCo live
+def test_the_live_loop_example_runs_and_reports():
+    loop = Path(__file__).parents[1] / "scripts" / "online_loop.py"
+    result = subprocess.run([sys.executable, str(loop), "--seconds", "1", "--json"], capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert not report["fell"] and report["seconds"] == pytest.approx(1.0, abs=0.01)
+    assert report["tick_median_s"] > 0
+    bad = subprocess.run([sys.executable, str(loop), "--seconds", "0"], capture_output=True, text=True, timeout=300)
+    assert_one_line_error(bad, "--seconds")
