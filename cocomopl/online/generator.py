@@ -16,22 +16,26 @@ How a tick is made, causally:
    most, a touchdown's time twice): the learned joints and pelvis orientation, the pelvis
    hung from the soles on the ground, the learned reference ZMP.
 3. **The dynamics filter as preview control** (Kajita et al., IROS 2003, sec. IV, its
-   online form): the multibody ZMP of the kinematic samples, from the floating base's rows
-   of inverse dynamics, against the reference; a ZMP preview servo
+   online form): the multibody ZMP of the knots, from the floating base's rows of inverse
+   dynamics, against the reference; a ZMP preview servo
    (:class:`~cocomopl.baselines.preview_control.PreviewController`) over the next
-   ``preview_s`` seconds of that error gives the pelvis the horizontal shift whose
-   cart-table ZMP cancels it, and the legs are placed by inverse kinematics so the soles
-   stay on their footsteps (in the air, on their learned path bent to land on the footstep).
-   ``passes`` such passes run one after the other, each on the one before's knots, as the
-   whole-walk filter's passes do.
+   ``preview_s`` seconds of that error gives the pelvis the horizontal shift that cancels
+   it, by the multibody ZMP's own answer to a pelvis shift
+   (:func:`~cocomopl.synthesis.dynamics_filter.pelvis_shift_response`), and the legs are
+   placed by inverse kinematics so the soles stay on their footsteps (in the air, on their
+   learned path bent to land on the footstep).  ``passes`` such passes run one after the
+   other, each on the one before's knots, as the whole-walk filter's passes do; a local
+   least-squares correction over blocks of ``BLOCK_INSTANTS`` instants then takes out the
+   short errors at touchdowns and lift-offs.
 4. **Ticks** between the filtered knots, on the uniform cubic B-spline they control (through
    a touchdown too, its pre-impact knot left out, so the velocities stay continuous);
    inverse dynamics gives their torques and contact wrenches.
 
-The knots are filtered ``passes * preview_s`` ahead of the tick returned.  A command
-replaces every step not begun by the last filtered knot: it takes effect from the end of
-the step under way (or the one after it, if that one has begun by then), the steps after it
-conditioned on that step's end, so no reference jumps.
+The stages run ahead of the tick returned, a few knots a tick, so that no tick computes a
+preview horizon at once.  A command replaces the steps that begin a whole ``passes *
+preview_s`` after the last corrected block, so that every pass previews them; the steps
+before stay, and the new ones are conditioned on the end of the last kept one, so no
+reference jumps.
 """
 
 from __future__ import annotations
@@ -62,7 +66,7 @@ TICK_S = 0.005  # the default control period
 PREVIEW_S = 0.75  # s of the ZMP error each filter pass previews
 PASSES = 2
 SERVO_WEIGHT_INPUT = 1e-8  # the preview servo's jerk weight
-ERROR_GAIN = 1.0  # of the ZMP error each pass corrects
+ERROR_GAIN = 1.0  # share of the ZMP error each pass corrects (divided by the response's kappa)
 TIME_EPS = 1e-9  # s: times this close are the same instant
 BLOCK_INSTANTS = 8  # of the local correction after the preview passes
 WORK_ITEMS = 2  # stage knots a tick works ahead at most
