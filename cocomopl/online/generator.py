@@ -606,7 +606,7 @@ class WalkingGenerator:
         q, v, a = _bspline(model, knots, s, h)
         zmp = (1 - s) * now.zmp + s * self._knots[j + 1].zmp  # up to a touchdown, the pre-impact ZMP
         tau, wrenches = contact_inverse_dynamics(self.robot, self._data, q, v, a, now.contact)
-        if j - 2 in self._knots:
+        if j - 3 in self._knots:  # something to forget: the knot before the two kept
             self._forget_before(j - 2)
         self._work_ahead()
         self._k += 1
