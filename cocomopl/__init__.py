@@ -20,6 +20,7 @@ __version__ = "0.2.0"
 _EXPORTS = {
     "BUNDLED_DATASET": "cocomopl.data",
     "BUNDLED_MODEL": "cocomopl.data",
+    "BUNDLED_OMNI_MODEL": "cocomopl.data",
     "Motion": "cocomopl.motion",
     "StepSpec": "cocomopl.motion",
     "Robot": "cocomopl.robot",
@@ -38,6 +39,9 @@ _EXPORTS = {
     "Footsteps": "cocomopl.requests",
     "Goals": "cocomopl.requests",
     "Refinement": "cocomopl.requests",
+    "Commands": "cocomopl.requests",
+    "WalkingGenerator": "cocomopl.online",
+    "VelocityCommand": "cocomopl.online",
 }
 
 __all__ = ["Error", "__version__"]

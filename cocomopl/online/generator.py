@@ -56,6 +56,7 @@ from cocomopl.motion import Footstep, Motion, StepSpec
 from cocomopl.online.commands import STOP, VelocityCommand, command_footstep, step_period
 from cocomopl.planning.footsteps import Landing, same_footstep
 from cocomopl.primitives.estimator import MovementPrimitives, PredictedStep
+from cocomopl.primitives.model_file import model_robot
 from cocomopl.requests import PLAN_DT, PLAN_DT_RANGE
 from cocomopl.robot import Robot
 from cocomopl.synthesis.dynamics_filter import FILTER_HEIGHT_WEIGHT, pelvis_shift_response
@@ -189,7 +190,8 @@ class WalkingGenerator:
     Parameters
     ----------
     model : a fitted model (the step-space one for velocity commands: a straight model's
-        footsteps have neither width nor turn), with ``robot`` the robot it was trained for
+        footsteps have neither width nor turn); its arrays are prepared for prediction here
+    robot : the robot it was trained for; default the model's
     dt : the control period, s (5 ms by default; 1 ms to ``plan_dt``)
     plan_dt : the knots' spacing at most, s, as the whole-walk placement's ``dt``
     preview_s : how far ahead (s) each pass of the dynamics filter previews the ZMP error
@@ -204,7 +206,7 @@ class WalkingGenerator:
     generation_s_ : s spent predicting steps so far (the rest of a tick places and filters)
     """
 
-    def __init__(self, model: MovementPrimitives, robot: Robot, *, dt: float = TICK_S, plan_dt: float = PLAN_DT,
+    def __init__(self, model: MovementPrimitives, robot: Robot | None = None, *, dt: float = TICK_S, plan_dt: float = PLAN_DT,
                  preview_s: float = PREVIEW_S, passes: int = PASSES, soles: dict[str, np.ndarray] | None = None,
                  keep_knots: bool = False):
         if not (isinstance(plan_dt, (int, float)) and PLAN_DT_RANGE[0] <= plan_dt <= PLAN_DT_RANGE[1]):
@@ -215,7 +217,8 @@ class WalkingGenerator:
             raise Error(f"preview {preview_s} s is outside {4 * plan_dt:g}..5 s")
         if not (isinstance(passes, int) and 1 <= passes <= 6):
             raise Error(f"{passes} filter passes is outside 1..6")
-        self.model, self.robot, self.dt, self.plan_dt, self.preview_s = model, robot, float(dt), float(plan_dt), float(preview_s)
+        robot = model_robot(model) if robot is None else robot
+        self.model, self.robot, self.dt, self.plan_dt, self.preview_s = model.prepare(), robot, float(dt), float(plan_dt), float(preview_s)
         self.period_ = step_period(model)
         self.limits_ = model.footstep_range()
         self._data = robot.model.createData()
