@@ -165,7 +165,8 @@ def test_velocity_commands_become_footsteps_with_the_conventions_of_stepspec(omn
 
 @pytest.mark.parametrize("kwargs, message", [
     ({"dt": 0.0}, "control period"), ({"dt": 0.1}, "control period"), ({"plan_dt": 0.2}, "knot spacing"),
-    ({"preview_s": 0.01}, "preview"), ({"passes": 0}, "filter passes"),
+    ({"preview_s": 0.01}, "preview"), ({"passes": 0}, "filter passes"), ({"passes": True}, "filter passes"),
+    ({"preview_s": True}, "preview"), ({"dt": "5 ms"}, "control period"),
 ])
 def test_bad_generator_settings_are_refused_in_one_line(omni, kwargs, message):
     with pytest.raises(Error, match=message):

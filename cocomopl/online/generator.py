@@ -209,14 +209,14 @@ class WalkingGenerator:
     def __init__(self, model: MovementPrimitives, robot: Robot | None = None, *, dt: float = TICK_S, plan_dt: float = PLAN_DT,
                  preview_s: float = PREVIEW_S, passes: int = PASSES, soles: dict[str, np.ndarray] | None = None,
                  keep_knots: bool = False):
-        if not (isinstance(plan_dt, (int, float)) and PLAN_DT_RANGE[0] <= plan_dt <= PLAN_DT_RANGE[1]):
-            raise Error(f"knot spacing {plan_dt} s is outside {PLAN_DT_RANGE[0]:g}..{PLAN_DT_RANGE[1]:g} s")
-        if not (isinstance(dt, (int, float)) and 0.001 <= dt <= plan_dt):
-            raise Error(f"control period {dt} s is outside 0.001..{plan_dt:g} s")
-        if not (isinstance(preview_s, (int, float)) and 4 * plan_dt <= preview_s <= 5.0):
-            raise Error(f"preview {preview_s} s is outside {4 * plan_dt:g}..5 s")
-        if not (isinstance(passes, int) and 1 <= passes <= 6):
-            raise Error(f"{passes} filter passes is outside 1..6")
+        if not (_is_number(plan_dt) and PLAN_DT_RANGE[0] <= plan_dt <= PLAN_DT_RANGE[1]):
+            raise Error(f"knot spacing {plan_dt!r} s is outside {PLAN_DT_RANGE[0]:g}..{PLAN_DT_RANGE[1]:g} s")
+        if not (_is_number(dt) and 0.001 <= dt <= plan_dt):
+            raise Error(f"control period {dt!r} s is outside 0.001..{plan_dt:g} s")
+        if not (_is_number(preview_s) and 4 * plan_dt <= preview_s <= 5.0):
+            raise Error(f"preview {preview_s!r} s is outside {4 * plan_dt:g}..5 s")
+        if not (isinstance(passes, int) and not isinstance(passes, bool) and 1 <= passes <= 6):
+            raise Error(f"{passes!r} filter passes is outside 1..6")
         robot = model_robot(model) if robot is None else robot
         self.model, self.robot, self.dt, self.plan_dt, self.preview_s = model.prepare(), robot, float(dt), float(plan_dt), float(preview_s)
         self.period_ = step_period(model)
@@ -677,6 +677,11 @@ class WalkingGenerator:
         return kinematic_motion(self.robot, t, np.array([q for _, q in knots]), contact=contact, impacts=impacts,
                                 phases=phases, steps=steps, step_starts=np.array(starts, dtype=int),
                                 producer="primitives", zmp=np.array([k.zmp for k, _ in knots]))
+
+
+def _is_number(value) -> bool:
+    """Whether ``value`` is a real number (``True`` is an int in Python, not a number here)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _bspline(model: pin.Model, knots: list, s: float, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
