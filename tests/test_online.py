@@ -260,3 +260,8 @@ def test_the_live_loop_example_runs_and_reports():
     assert report["tick_median_s"] > 0
     bad = subprocess.run([sys.executable, str(loop), "--seconds", "0"], capture_output=True, text=True, timeout=300)
     assert_one_line_error(bad, "--seconds")
+
+
+def test_a_walk_started_and_stopped_before_it_moves_still_walks_its_step(omni):
+    walk = generate_walk(WalkRequest(Commands(((0.0, 0.1, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)))))
+    assert [s.kind for s in walk.motion.steps] == ["start", "stop"]

@@ -274,15 +274,17 @@ class WalkingGenerator:
 
     def follow(self, commands: list[tuple[float, VelocityCommand]], *, standing_s: float = 1.0) -> list[Reference]:
         """Tick through timed ``commands`` ((s from now, command), in order, the last a stop),
-        each given at its time, until the robot has stood still for ``standing_s`` after
-        its last step: the references of every tick."""
+        each given at its time, until the robot has stood still for ``standing_s`` with no
+        step ahead of it: the references of every tick."""
         start, pending, references, still = self.time, list(commands), [], 0
         limit = start + (pending[-1][0] if pending else 0.0) + len(self._passes) * self.preview_s + 10 * self.period_
         while self.time < limit:
             while pending and self.time >= start + pending[0][0] - TIME_EPS:
                 self.command(pending.pop(0)[1])
             references.append(self.tick())
-            still = still + 1 if not pending and references[-1].step is None else 0
+            # standing still: no command or footstep left to walk, and no step under way or planned
+            done = not pending and self._command.is_stop and not self._queue
+            still = still + 1 if done and references[-1].step is None and not references[-1].landings else 0
             if still * self.dt >= standing_s:
                 break
         return references
