@@ -230,8 +230,6 @@ class WalkingGenerator:
         self._knots: dict[int, _Knot] = {}
         self._passes = [_Pass() for _ in range(passes + 1)]  # the preview passes, then the local correction
         self._block_first: dict[int, int] = {}  # first knot of each block of the local correction
-        corners = np.array(robot.sole.corners(), dtype=float)[:, :2]
-        self._sole_box = np.array([corners.min(axis=0), corners.max(axis=0)])  # the sole's rectangle in its frame
         self._k, self._interval = 0, 0  # the next tick; the knot at or before it
         self._kept: list[tuple[_Knot, np.ndarray]] | None = [] if keep_knots else None
         self._walked: list[_Planned] = []  # with keep_knots, the steps already walked and let go
@@ -447,19 +445,8 @@ class WalkingGenerator:
                 s = s * s * (3 - 2 * s)  # smoothstep: no velocity jump at lift-off or touchdown
                 j = SIDES.index(air)
                 targets[j] = pin.exp6((1 - s) * lift + s * land) * targets[j]
-        if not self._on_a_sole(zmp, ground[0]):  # (a sole's hull costs 0.1 ms: only where it can matter)
-            zmp = zmp_in_support(self.robot, zmp[None], ground)[0]  # as the whole-walk placement's
+        zmp = zmp_in_support(self.robot, zmp[None], ground)[0]  # as the whole-walk placement's
         return _Knot(p.t0 + t, q, zmp, contact[0], targets, p.spec, stretch)
-
-    def _on_a_sole(self, zmp: np.ndarray, ground: list) -> bool:
-        """Whether ``zmp`` (3,) lies on one of the soles on the ``ground`` (placements or
-        None): then it lies in their support polygon, as :func:`zmp_in_support` leaves it."""
-        for placement in ground:
-            if placement is not None:
-                x, y, _ = placement.rotation.T @ (zmp - placement.translation)
-                if self._sole_box[0, 0] <= x <= self._sole_box[1, 0] and self._sole_box[0, 1] <= y <= self._sole_box[1, 1]:
-                    return True
-        return False
 
     # ------------------------------------------------------------------ the filter
     def _input(self, stage: int, index: int) -> np.ndarray:
