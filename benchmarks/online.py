@@ -28,7 +28,6 @@ import numpy as np
 
 from cocomopl.analysis.feasibility import check_motion
 from cocomopl.data import model_path
-from cocomopl.dynamics import sole_placements, zmp_from_wrenches
 from cocomopl.errors import Error
 from cocomopl.export.safety import check_safe
 from cocomopl.gait import m_gen, sequence_specs
@@ -37,7 +36,7 @@ from cocomopl.online import VelocityCommand, WalkingGenerator, grid_of
 from cocomopl.pipeline import SimSettings, simulate_walk
 from cocomopl.primitives.model_file import load_model, model_robot
 from cocomopl.requests import PLAN_DT
-from cocomopl.synthesis.dynamics_filter import rms_zmp_error
+from cocomopl.synthesis.dynamics_filter import plan_zmp_error
 from cocomopl.synthesis.step_chain import generate_steps
 from cocomopl.synthesis.world import place_steps
 
@@ -63,13 +62,12 @@ def walk_until_standing(generator, max_s: float = 60.0) -> tuple[list, np.ndarra
 
 def plan_figures(robot, motion) -> dict:
     report = check_motion(robot, motion, FRICTION)
-    zmp = zmp_from_wrenches(sole_placements(robot, motion.q), motion.wrenches)
     simulated = {}
     for stabilizer in (True, False):
         rollout, metrics = simulate_walk(robot, motion, SimSettings(stabilizer=stabilizer))
         simulated["with_stabilizer" if stabilizer else "without_stabilizer"] = {
             "fell": rollout.fell, "peak_force_over_weight": metrics.peak_force_over_weight}
-    return {"zmp_error_rms_m": rms_zmp_error(zmp, motion.zmp, motion.impacts), "zmp_margin_m": report["zmp_margin"],
+    return {"zmp_error_rms_m": plan_zmp_error(robot, motion), "zmp_margin_m": report["zmp_margin"],
             "torque_ratio": report["torque_ratio"], "knots": motion.n, "simulated": simulated}
 
 

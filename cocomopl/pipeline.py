@@ -22,7 +22,7 @@ import numpy as np
 from cocomopl.data import dataset_path as bundled_dataset_path
 from cocomopl.data import model_path as bundled_model_path
 from cocomopl.dataset.signals import signal_names
-from cocomopl.dynamics import SIDES, sole_placements, zmp_from_wrenches
+from cocomopl.dynamics import SIDES
 from cocomopl.errors import Error
 from cocomopl.gait import m_gen, m_opt, sequence_specs, wrap_angle
 from cocomopl.kinematics import check_reach
@@ -35,7 +35,7 @@ from cocomopl.provenance import stamp
 from cocomopl.requests import PLAN_DT, Commands, Footsteps, Goal, Goals, Refinement, StraightSteps, WalkRequest
 from cocomopl.results import GoalErrors, RefineSummary, ReproduceReport, SimulationRecord, WalkReport
 from cocomopl.robot import Robot
-from cocomopl.synthesis.dynamics_filter import rms_zmp_error
+from cocomopl.synthesis.dynamics_filter import plan_zmp_error
 from cocomopl.synthesis.step_chain import OutOfSupportWarning, generate_steps, outside_support, support_radius
 from cocomopl.synthesis.world import place_steps, replace_stretch
 
@@ -283,8 +283,7 @@ def _streamed_walk(request: WalkRequest, model: MovementPrimitives, robot: Robot
     streamed_s = time.perf_counter() - started
     motion = generator.knot_motion()
     steps = generator.walked_steps()
-    zmp = zmp_from_wrenches(sole_placements(robot, motion.q), motion.wrenches)
-    error = rms_zmp_error(zmp, motion.zmp, motion.impacts)
+    error = plan_zmp_error(robot, motion)
     motion.plan = PlanRecord(dynamics_filter_zmp_error_m=[error], dynamics_filter_kept_error_m=error, upper_body_limits={},
                              plan_zmp_error_m=error, model=Path(model_path).name)
     _noting_footsteps(motion, landings_of(robot, motion.steps))

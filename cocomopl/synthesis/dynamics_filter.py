@@ -32,6 +32,7 @@ from cocomopl.dynamics import (
     zmp_from_wrenches,
 )
 from cocomopl.kinematics import IK_REACHED, leg_joints, place_legs
+from cocomopl.motion import Motion
 from cocomopl.robot import Robot
 
 PASSES = 6
@@ -174,6 +175,12 @@ def rms_zmp_error(zmp: np.ndarray, zmp_ref: np.ndarray, impacts: np.ndarray) -> 
     samples (no contact force) are skipped."""
     keep = _zmp_samples(len(zmp), impacts)
     return float(np.sqrt(np.nanmean((zmp[keep, :2] - zmp_ref[keep, :2]) ** 2)))
+
+
+def plan_zmp_error(robot: Robot, motion: Motion) -> float:
+    """:func:`rms_zmp_error` of a planned motion: the ZMP of its contact wrenches against its
+    reference ZMP, its pre-impact samples left out (m)."""
+    return rms_zmp_error(zmp_from_wrenches(sole_placements(robot, motion.q), motion.wrenches), motion.zmp, motion.impacts)
 
 
 def dynamics_filter(

@@ -17,13 +17,13 @@ import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
 from cocomopl.analysis.feasibility import nearest_inside, soles_polygon
-from cocomopl.dynamics import SIDES, kinematic_motion, sole_placements, zmp_from_wrenches
+from cocomopl.dynamics import SIDES, kinematic_motion
 from cocomopl.gait import OTHER_SIDE, footsteps, ground_position, ground_yaw, phase_plan, sole_poses
 from cocomopl.kinematics import flat_placement
 from cocomopl.motion import SAMPLED, TIME_TOLERANCE, Motion, PlanRecord
 from cocomopl.primitives.estimator import PredictedStep
 from cocomopl.robot import Robot
-from cocomopl.synthesis.dynamics_filter import dynamics_filter, rms_zmp_error
+from cocomopl.synthesis.dynamics_filter import dynamics_filter, plan_zmp_error
 from cocomopl.synthesis.upper_body_limits import limit_upper_body
 
 REFILTER_PASSES = 2  # of the dynamics filter after the upper-body correction
@@ -269,9 +269,8 @@ def place_steps(robot: Robot, steps: list[PredictedStep], *, dt: float = 0.005,
     )
     # the upper-body correction and the filter's second run move the ZMP after the first
     # run's kept pass: what the walk is judged by is the plan's own
-    multibody = zmp_from_wrenches(sole_placements(robot, q), motion.wrenches)
     motion.plan = PlanRecord(dynamics_filter_zmp_error_m=filter_errors, dynamics_filter_kept_error_m=filter_errors[kept],
-                             upper_body_limits=upper_body, plan_zmp_error_m=rms_zmp_error(multibody, zmp, impacts))
+                             upper_body_limits=upper_body, plan_zmp_error_m=plan_zmp_error(robot, motion))
     return motion
 
 
